@@ -1,0 +1,1 @@
+//! FMI 2.0 co-simulation slave (work in progress).

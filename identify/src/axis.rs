@@ -1,0 +1,88 @@
+//! Cartesian axes of the machine (force inputs, TCP responses and axis positions).
+
+use serde::{Deserialize, Serialize};
+
+/// One machine axis.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Axis {
+    /// X axis.
+    X,
+    /// Y axis.
+    Y,
+    /// Z axis.
+    Z,
+}
+
+impl Axis {
+    /// All three axes in order.
+    pub const ALL: [Axis; 3] = [Axis::X, Axis::Y, Axis::Z];
+
+    /// Index 0, 1, 2.
+    pub fn index(self) -> usize {
+        self as usize
+    }
+
+    /// Lower-case letter, as used in column and channel names.
+    pub fn letter(self) -> char {
+        match self {
+            Axis::X => 'x',
+            Axis::Y => 'y',
+            Axis::Z => 'z',
+        }
+    }
+
+    /// Parses `x`, `y` or `z` (either case).
+    pub fn from_letter(c: char) -> Option<Axis> {
+        match c.to_ascii_lowercase() {
+            'x' => Some(Axis::X),
+            'y' => Some(Axis::Y),
+            'z' => Some(Axis::Z),
+            _ => None,
+        }
+    }
+}
+
+impl std::fmt::Display for Axis {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}", self.letter())
+    }
+}
+
+/// A response/force channel: response along `output` per unit force along `input`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+pub struct Channel {
+    /// Response axis.
+    pub output: Axis,
+    /// Force axis.
+    pub input: Axis,
+}
+
+impl Channel {
+    /// New channel `output` per `input`.
+    pub fn new(output: Axis, input: Axis) -> Self {
+        Channel { output, input }
+    }
+
+    /// Name as in the FRF CSV (`yx` = response y per force x).
+    pub fn name(&self) -> String {
+        format!("{}{}", self.output.letter(), self.input.letter())
+    }
+
+    /// Parses a two-letter channel name such as `xx` or `yx`.
+    pub fn parse(s: &str) -> Option<Channel> {
+        let mut it = s.chars();
+        let o = Axis::from_letter(it.next()?)?;
+        let i = Axis::from_letter(it.next()?)?;
+        if it.next().is_some() {
+            return None;
+        }
+        Some(Channel::new(o, i))
+    }
+}
+
+impl std::fmt::Display for Channel {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}{}", self.output.letter(), self.input.letter())
+    }
+}

@@ -1,0 +1,91 @@
+//! The one error type of the identification library.
+
+use std::path::PathBuf;
+
+/// Everything that can go wrong inside `identify`.
+///
+/// Data problems carry a message that says what to do about them; the command line maps
+/// [`Error::is_bad_input`] to exit code 2 and everything else to exit code 1.
+#[non_exhaustive]
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// A data file could not be parsed or violates the format contract.
+    #[error("{file}:{line}{col}: {msg}", col = .column.as_ref().map(|c| format!(" column '{c}'")).unwrap_or_default())]
+    BadFile {
+        /// The offending file.
+        file: PathBuf,
+        /// 1-based line number (0 when the problem is the whole file).
+        line: usize,
+        /// Column name, when one column is at fault.
+        column: Option<String>,
+        /// What is wrong and how to fix it.
+        msg: String,
+    },
+    /// The input is readable but unusable for the requested operation
+    /// (e.g. no excitation in band, too few samples, inconsistent channels).
+    #[error("{0}")]
+    BadInput(String),
+    /// A numerical procedure failed (singular system, no convergence).
+    #[error("numerical failure: {0}")]
+    Numerical(String),
+    /// A twin file has a schema this version cannot read.
+    #[error("{file}: {msg}")]
+    Schema {
+        /// The twin file.
+        file: PathBuf,
+        /// What is wrong (e.g. version too new) and what to do.
+        msg: String,
+    },
+    /// Operating-system I/O failure.
+    #[error("{path}: {source}")]
+    Io {
+        /// The path being read or written.
+        path: PathBuf,
+        /// The underlying error.
+        source: std::io::Error,
+    },
+    /// JSON (de)serialisation failure of a twin file.
+    #[error("{path}: not a valid twin file: {source}")]
+    Json {
+        /// The path being read or written.
+        path: PathBuf,
+        /// The underlying error.
+        source: serde_json::Error,
+    },
+}
+
+impl Error {
+    /// True when the error is the user's input (exit code 2), false for internal failures.
+    pub fn is_bad_input(&self) -> bool {
+        matches!(
+            self,
+            Error::BadFile { .. } | Error::BadInput(_) | Error::Schema { .. } | Error::Json { .. }
+        ) || matches!(self, Error::Io { source, .. } if source.kind() == std::io::ErrorKind::NotFound)
+    }
+
+    /// Shorthand for a [`Error::BadFile`].
+    pub fn bad_file(
+        file: impl Into<PathBuf>,
+        line: usize,
+        column: Option<&str>,
+        msg: impl Into<String>,
+    ) -> Self {
+        Error::BadFile {
+            file: file.into(),
+            line,
+            column: column.map(str::to_owned),
+            msg: msg.into(),
+        }
+    }
+
+    /// Wraps an I/O error with its path.
+    pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
+        Error::Io {
+            path: path.into(),
+            source,
+        }
+    }
+}
+
+/// Result alias of this crate.
+pub type Result<T, E = Error> = std::result::Result<T, E>;

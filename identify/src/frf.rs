@@ -1,0 +1,112 @@
+//! Frequency response functions (the data the rational fit works on) and the fit metric.
+
+use crate::axis::Channel;
+use num_complex::Complex64;
+use serde::{Deserialize, Serialize};
+
+/// One measured or modelled FRF channel, receptance in m/N.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FrfChannel {
+    /// Which response per which force.
+    pub channel: Channel,
+    /// Complex receptance at each frequency line [m/N].
+    pub h: Vec<Complex64>,
+    /// Coherence γ² in [0, 1] at each line, when estimated from data.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub coherence: Option<Vec<f64>>,
+}
+
+/// A set of FRF channels on one common, strictly increasing frequency grid.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+pub struct Frf {
+    /// Frequency lines [Hz], strictly increasing.
+    pub freqs_hz: Vec<f64>,
+    /// The channels, each with one value per frequency line.
+    pub channels: Vec<FrfChannel>,
+}
+
+impl Frf {
+    /// The channel with this name, if present.
+    pub fn channel(&self, c: Channel) -> Option<&FrfChannel> {
+        self.channels.iter().find(|ch| ch.channel == c)
+    }
+
+    /// Angular frequencies [rad/s] of the grid.
+    pub fn omegas(&self) -> Vec<f64> {
+        self.freqs_hz
+            .iter()
+            .map(|f| 2.0 * std::f64::consts::PI * f)
+            .collect()
+    }
+
+    /// Restricts every channel to lines with `lo <= f <= hi`.
+    pub fn band(&self, lo: f64, hi: f64) -> Frf {
+        let keep: Vec<usize> = (0..self.freqs_hz.len())
+            .filter(|&i| self.freqs_hz[i] >= lo && self.freqs_hz[i] <= hi)
+            .collect();
+        Frf {
+            freqs_hz: keep.iter().map(|&i| self.freqs_hz[i]).collect(),
+            channels: self
+                .channels
+                .iter()
+                .map(|c| FrfChannel {
+                    channel: c.channel,
+                    h: keep.iter().map(|&i| c.h[i]).collect(),
+                    coherence: c
+                        .coherence
+                        .as_ref()
+                        .map(|g| keep.iter().map(|&i| g[i]).collect()),
+                })
+                .collect(),
+        }
+    }
+}
+
+/// The paper's fit metric (its equation 5, also SPEC section 4), in percent:
+/// `(1 - ||F - H|| / ||F - mean(F)||) * 100` over complex (or real) values.
+///
+/// `truth` is the reference (measured or analytic), `model` the estimate. Returns
+/// `-inf` when the reference is constant.
+pub fn fit_percent(truth: &[Complex64], model: &[Complex64]) -> f64 {
+    assert_eq!(truth.len(), model.len(), "fit_percent: length mismatch");
+    let n = truth.len().max(1) as f64;
+    let mean = truth.iter().sum::<Complex64>() / n;
+    let num: f64 = truth
+        .iter()
+        .zip(model)
+        .map(|(a, b)| (a - b).norm_sqr())
+        .sum::<f64>()
+        .sqrt();
+    let den: f64 = truth
+        .iter()
+        .map(|a| (a - mean).norm_sqr())
+        .sum::<f64>()
+        .sqrt();
+    if den == 0.0 {
+        return f64::NEG_INFINITY;
+    }
+    (1.0 - num / den) * 100.0
+}
+
+/// [`fit_percent`] for real signals (time responses).
+pub fn fit_percent_real(truth: &[f64], model: &[f64]) -> f64 {
+    let a: Vec<Complex64> = truth.iter().map(|&v| Complex64::new(v, 0.0)).collect();
+    let b: Vec<Complex64> = model.iter().map(|&v| Complex64::new(v, 0.0)).collect();
+    fit_percent(&a, &b)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fit_is_100_for_identical_and_0_for_mean() {
+        let f: Vec<Complex64> = (0..10)
+            .map(|i| Complex64::new(i as f64, -(i as f64) * 0.5))
+            .collect();
+        assert!((fit_percent(&f, &f) - 100.0).abs() < 1e-12);
+        let mean = f.iter().sum::<Complex64>() / 10.0;
+        let m = vec![mean; 10];
+        assert!(fit_percent(&f, &m).abs() < 1e-12);
+    }
+}

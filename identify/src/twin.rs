@@ -1,0 +1,279 @@
+//! The twin file: a versioned JSON document holding every pose's model, the FRFs kept
+//! for later refits, interpolation settings, and an append-only history.
+//!
+//! Schema `mtwin-twin`, version [`TWIN_VERSION`]; documented in the README. Loading a
+//! file of another schema or version fails with a message that says what to do.
+
+use crate::atomic::write_atomic;
+use crate::axis::Channel;
+use crate::error::{Error, Result};
+use crate::frf::Frf;
+use crate::model::ModalModel;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// Schema name written into every twin file.
+pub const TWIN_SCHEMA: &str = "mtwin-twin";
+/// Schema version this library writes and reads.
+pub const TWIN_VERSION: u32 = 1;
+
+/// Units of every quantity in the file (fixed; written for readers of the JSON).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Units {
+    /// Frequency unit of FRF grids.
+    pub frequency: String,
+    /// Receptance unit of FRF values and model outputs.
+    pub receptance: String,
+    /// Natural frequencies in the models.
+    pub natural_frequency: String,
+    /// Axis positions.
+    pub position: String,
+}
+
+impl Default for Units {
+    fn default() -> Self {
+        Units {
+            frequency: "Hz".into(),
+            receptance: "m/N".into(),
+            natural_frequency: "rad/s (wn)".into(),
+            position: "m".into(),
+        }
+    }
+}
+
+/// Fit of one channel of a pose model against its FRF.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ChannelFit {
+    /// The channel.
+    pub channel: Channel,
+    /// Fit in percent (paper's equation 5) within the fitted band.
+    pub fit_pct: f64,
+}
+
+/// How the model order of a pose was chosen.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+pub struct OrderInfo {
+    /// Number of modes (pole pairs) of the model.
+    pub modes: usize,
+    /// True when chosen from the stabilization diagram, false when forced (`--order`).
+    pub automatic: bool,
+    /// Stable natural frequencies [Hz] found in the stabilization diagram.
+    #[serde(default)]
+    pub stable_freqs_hz: Vec<f64>,
+}
+
+/// The model identified at one measured pose.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PoseModel {
+    /// Axis positions x, y, z [m].
+    pub pose: [f64; 3],
+    /// The modal model (all channels measured at this pose).
+    pub model: ModalModel,
+    /// The FRF the model was fitted to (kept for refits).
+    pub frf: Frf,
+    /// Band [Hz] the fit used.
+    pub band_hz: [f64; 2],
+    /// Fit per channel.
+    pub fit: Vec<ChannelFit>,
+    /// Order selection.
+    pub order: OrderInfo,
+    /// Data files it came from.
+    #[serde(default)]
+    pub sources: Vec<String>,
+}
+
+/// One entry of the append-only history.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct HistoryEntry {
+    /// Seconds since the Unix epoch when the entry was made.
+    pub unix_time: u64,
+    /// What happened: `identify`, `refit`, `extend`, ...
+    pub kind: String,
+    /// Data files used.
+    #[serde(default)]
+    pub files: Vec<String>,
+    /// What changed, in words.
+    pub summary: String,
+    /// Numbers worth keeping (fits, drift figures ...).
+    #[serde(default)]
+    pub figures: serde_json::Map<String, serde_json::Value>,
+    /// The pose models as they were BEFORE this entry's change (empty for `identify`),
+    /// so no earlier model is ever lost.
+    #[serde(default)]
+    pub previous_poses: Vec<PoseModel>,
+}
+
+/// Where the twin came from.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+pub struct Provenance {
+    /// Tool and version that wrote the file.
+    pub tool: String,
+    /// Command line or API call that produced it.
+    #[serde(default)]
+    pub command: String,
+}
+
+/// A digital twin of the TCP dynamics over the workspace.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Twin {
+    /// Always [`TWIN_SCHEMA`].
+    pub schema: String,
+    /// Always [`TWIN_VERSION`] when written by this library.
+    pub version: u32,
+    /// Units of the numbers in the file.
+    pub units: Units,
+    /// Free name of the machine.
+    pub name: String,
+    /// Channels the twin models (e.g. `xx`, `yy`, `yx`).
+    pub channels: Vec<Channel>,
+    /// The measured poses and their models.
+    pub poses: Vec<PoseModel>,
+    /// Settings and figures of the interpolation between poses.
+    #[serde(default)]
+    pub interpolation: serde_json::Value,
+    /// Model extensions added by `diagnose` (delay, nonlinear terms ...).
+    #[serde(default)]
+    pub extensions: serde_json::Value,
+    /// Append-only history of identifications, refits and extensions.
+    pub history: Vec<HistoryEntry>,
+    /// Tool and command that wrote the file.
+    pub provenance: Provenance,
+}
+
+impl Twin {
+    /// A new twin from pose models.
+    pub fn new(name: &str, poses: Vec<PoseModel>) -> Twin {
+        let mut channels: Vec<Channel> = poses
+            .iter()
+            .flat_map(|p| p.model.channels.iter().map(|c| c.channel))
+            .collect();
+        channels.sort();
+        channels.dedup();
+        Twin {
+            schema: TWIN_SCHEMA.into(),
+            version: TWIN_VERSION,
+            units: Units::default(),
+            name: name.into(),
+            channels,
+            poses,
+            interpolation: serde_json::Value::Null,
+            extensions: serde_json::Value::Null,
+            history: Vec::new(),
+            provenance: Provenance {
+                tool: format!("mtwin {}", env!("CARGO_PKG_VERSION")),
+                command: String::new(),
+            },
+        }
+    }
+
+    /// Parses a twin from JSON text; `path` names the source in messages.
+    pub fn from_json(text: &str, path: &Path) -> Result<Twin> {
+        let v: serde_json::Value = serde_json::from_str(text).map_err(|e| Error::Json {
+            path: path.into(),
+            source: e,
+        })?;
+        let schema = v.get("schema").and_then(|s| s.as_str());
+        if schema != Some(TWIN_SCHEMA) {
+            return Err(Error::Schema {
+                file: path.into(),
+                msg: format!(
+                    "not an mtwin twin file (field \"schema\" is {}, expected \"{TWIN_SCHEMA}\"); \
+                     create one with `mtwin identify DATA.csv --out TWIN.json`",
+                    schema.map(|s| format!("\"{s}\"")).unwrap_or("missing".into())
+                ),
+            });
+        }
+        let version = v.get("version").and_then(|s| s.as_u64()).unwrap_or(0);
+        if version > TWIN_VERSION as u64 {
+            return Err(Error::Schema {
+                file: path.into(),
+                msg: format!(
+                    "twin schema version {version} was written by a newer mtwin; this mtwin \
+                     ({}) reads up to version {TWIN_VERSION}: upgrade mtwin",
+                    env!("CARGO_PKG_VERSION")
+                ),
+            });
+        }
+        if version < 1 {
+            return Err(Error::Schema {
+                file: path.into(),
+                msg: format!(
+                    "twin schema version {version} is not supported (this mtwin reads version \
+                     {TWIN_VERSION}); re-identify the twin from its data"
+                ),
+            });
+        }
+        let twin: Twin = serde_json::from_value(v).map_err(|e| Error::Json {
+            path: path.into(),
+            source: e,
+        })?;
+        twin.validate(path)?;
+        Ok(twin)
+    }
+
+    /// Loads a twin file.
+    pub fn load(path: &Path) -> Result<Twin> {
+        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        Twin::from_json(&text, path)
+    }
+
+    /// Writes the twin atomically as pretty JSON.
+    pub fn save(&self, path: &Path) -> Result<()> {
+        let text = serde_json::to_string_pretty(self).map_err(|e| Error::Json {
+            path: path.into(),
+            source: e,
+        })?;
+        write_atomic(path, text.as_bytes())
+    }
+
+    /// Checks the invariants a loaded twin must satisfy (no NaN, stable modes, ...).
+    pub fn validate(&self, path: &Path) -> Result<()> {
+        let bad = |msg: String| Error::Schema {
+            file: path.into(),
+            msg,
+        };
+        if self.poses.is_empty() {
+            return Err(bad("the twin has no poses".into()));
+        }
+        for (i, p) in self.poses.iter().enumerate() {
+            if !p.pose.iter().all(|v| v.is_finite()) {
+                return Err(bad(format!("pose {i}: position is not finite")));
+            }
+            if !p.model.is_valid() {
+                return Err(bad(format!(
+                    "pose {i}: model has an unstable mode or a non-finite number"
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    /// A GUID that changes whenever the models change (used for the FMU).
+    pub fn guid(&self) -> String {
+        use std::hash::{Hash, Hasher};
+        let text = serde_json::to_string(&(&self.poses, &self.interpolation, &self.extensions))
+            .unwrap_or_default();
+        let mut h1 = std::collections::hash_map::DefaultHasher::new();
+        text.hash(&mut h1);
+        let a = h1.finish();
+        let mut h2 = std::collections::hash_map::DefaultHasher::new();
+        (a, text.len()).hash(&mut h2);
+        let b = h2.finish();
+        format!(
+            "{{{:08x}-{:04x}-{:04x}-{:04x}-{:012x}}}",
+            (a >> 32) as u32,
+            (a >> 16) as u16,
+            a as u16,
+            (b >> 48) as u16,
+            b & 0xffff_ffff_ffff
+        )
+    }
+}
+
+/// Seconds since the Unix epoch, now.
+pub fn now_unix() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_secs())
+        .unwrap_or(0)
+}

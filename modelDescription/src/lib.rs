@@ -1,0 +1,2 @@
+//! FMI 2.0 model description (work in progress).
+#![forbid(unsafe_code)]

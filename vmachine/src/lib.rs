@@ -1,0 +1,2 @@
+//! The virtual machine tool (work in progress).
+#![forbid(unsafe_code)]
