@@ -36,6 +36,7 @@ pub mod atomic;
 pub mod axis;
 pub mod error;
 pub mod frf;
+pub mod interpolate;
 pub mod model;
 pub mod rational_fit;
 pub mod read;
