@@ -80,6 +80,48 @@ pub struct PoseModel {
     /// Data files it came from.
     #[serde(default)]
     pub sources: Vec<String>,
+    /// Damping σ [1/s] an exponential window added to `frf` (the model is corrected
+    /// for it; the stored FRF is as windowed).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub frf_exp_window_sigma: Option<f64>,
+}
+
+/// Leave-one-pose-out accuracy of the interpolation at one measured pose.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LooEntry {
+    /// The pose left out.
+    pub pose: [f64; 3],
+    /// Fit of the model interpolated from the other poses against this pose's FRF.
+    pub fit: Vec<ChannelFit>,
+}
+
+/// How the twin interpolates between poses, and how well.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct InterpolationInfo {
+    /// `single`, `tensor_grid` or `rbf` (see `interpolate`).
+    pub method: String,
+    /// What happens outside the measured box.
+    pub extrapolation: String,
+    /// Quantities interpolated.
+    pub parameters: String,
+    /// Leave-one-pose-out figures (empty with fewer than 3 poses).
+    #[serde(default)]
+    pub leave_one_out: Vec<LooEntry>,
+    /// How the leave-one-out models were interpolated.
+    #[serde(default)]
+    pub leave_one_out_method: String,
+}
+
+impl Default for InterpolationInfo {
+    fn default() -> Self {
+        InterpolationInfo {
+            method: "single".into(),
+            extrapolation: "clamped to the measured box on each axis".into(),
+            parameters: "tracked modes: wn linear, ln(zeta) linear, b0/b1/d linear".into(),
+            leave_one_out: Vec::new(),
+            leave_one_out_method: String::new(),
+        }
+    }
 }
 
 /// One entry of the append-only history.
@@ -130,7 +172,7 @@ pub struct Twin {
     pub poses: Vec<PoseModel>,
     /// Settings and figures of the interpolation between poses.
     #[serde(default)]
-    pub interpolation: serde_json::Value,
+    pub interpolation: InterpolationInfo,
     /// Model extensions added by `diagnose` (delay, nonlinear terms ...).
     #[serde(default)]
     pub extensions: serde_json::Value,
@@ -156,7 +198,7 @@ impl Twin {
             name: name.into(),
             channels,
             poses,
-            interpolation: serde_json::Value::Null,
+            interpolation: InterpolationInfo::default(),
             extensions: serde_json::Value::Null,
             history: Vec::new(),
             provenance: Provenance {
