@@ -198,6 +198,36 @@ impl ModalModel {
         }
     }
 
+    /// Moves every pole by `sigma` along the real axis, keeping residues:
+    /// if this model fits `H(s + σ)` (an FRF measured through an exponential window
+    /// e^{-σt}), the result models `H(s)`. Over-damped sections are shifted pole by pole.
+    pub fn shift_poles(&mut self, sigma: f64) {
+        for k in 0..self.modes.len() {
+            let m = self.modes[k];
+            if m.zeta < 1.0 {
+                let p = m.pole();
+                let res: Vec<Complex64> =
+                    self.channels.iter().map(|c| c.num[k].residue(&m)).collect();
+                let q = p + sigma;
+                self.modes[k] = Mode::from_pole(q);
+                for (c, r) in self.channels.iter_mut().zip(res) {
+                    c.num[k] = ModeNum::from_residue(q, r);
+                }
+            } else {
+                // (b1 s + b0)/((s-p1)(s-p2)) with s -> s - σ: b0' = b0 - b1 σ
+                let [p1, p2] = m.poles();
+                let (q1, q2) = (p1.re + sigma, p2.re + sigma);
+                self.modes[k] = Mode {
+                    wn: (q1 * q2).abs().sqrt(),
+                    zeta: -(q1 + q2) / (2.0 * (q1 * q2).abs().sqrt()),
+                };
+                for c in &mut self.channels {
+                    c.num[k].b0 -= c.num[k].b1 * sigma;
+                }
+            }
+        }
+    }
+
     /// Discrete-time transfer function `H(z⁻¹) = B(z⁻¹)/A(z⁻¹)` of channel `ci` at sample
     /// time `ts`, the form of the paper's equation (1), for inspection.
     ///
@@ -284,6 +314,26 @@ mod tests {
         let pf = r / (s - p) + r.conj() / (s - p.conj());
         let sec = (s * n.b1 + n.b0) / mode.den(s);
         assert!((pf - sec).norm() < 1e-12 * pf.norm());
+    }
+
+    #[test]
+    fn shift_poles_undoes_an_exponential_window() {
+        let mut model = one_mode();
+        model.channels[0].num[0].b1 = 3.0;
+        let sigma = 7.0;
+        let mut windowed = model.clone();
+        windowed.shift_poles(-sigma); // the model of H(s + σ)
+        let mut back = windowed.clone();
+        back.shift_poles(sigma);
+        for f in [0.0, 50.0, 100.0, 170.0] {
+            let s = Complex64::new(0.0, 2.0 * PI * f);
+            let a = windowed.eval_s(0, s);
+            let b = model.eval_s(0, s + sigma);
+            assert!((a - b).norm() < 1e-12 * b.norm());
+            let c = back.eval_hz(0, f);
+            let d = model.eval_hz(0, f);
+            assert!((c - d).norm() < 1e-12 * d.norm());
+        }
     }
 
     #[test]
