@@ -32,6 +32,32 @@ use crate::twin::Twin;
 use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
 
+/// Simulates the twin's response to sampled forces at sampled poses (the loop behind
+/// `mtwin simulate`, the drift check and diagnosis).
+///
+/// Sample `i` of the result is the response at `t_i`: the state advanced over every
+/// step `[t_{k-1}, t_k]`, `k ≤ i`, with the model at the pose of `t_{k-1}`, plus the
+/// feedthrough of the force at `t_i` with the model at the pose of `t_i`.
+pub fn simulate_twin(
+    ev: &mut TwinEvaluator,
+    forces: &[[f64; 3]],
+    pose_at: impl Fn(usize) -> [f64; 3],
+    dt: f64,
+    hold: crate::simulate::Hold,
+) -> Vec<[f64; 3]> {
+    let mut out = Vec::with_capacity(forces.len());
+    if forces.is_empty() {
+        return out;
+    }
+    let mut sim = crate::simulate::Simulator::new(ev.n_modes(), hold);
+    out.push(sim.output(ev.model_at(pose_at(0)), &forces[0]));
+    for i in 1..forces.len() {
+        sim.step(ev.model_at(pose_at(i - 1)), &forces[i - 1], &forces[i], dt);
+        out.push(sim.output(ev.model_at(pose_at(i)), &forces[i]));
+    }
+    out
+}
+
 /// Which interpolation scheme a twin uses.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -159,6 +185,7 @@ pub struct TwinEvaluator {
     values: Vec<f64>,
     /// ω never drops below 10 % of its smallest measured value (spline overshoot guard)
     floor_wn: Vec<f64>,
+    last_pose: Option<[f64; 3]>,
 }
 
 fn flatten(m: &ModalModel, out: &mut Vec<f64>) {
@@ -261,6 +288,7 @@ impl TwinEvaluator {
             })
             .collect();
         Ok(TwinEvaluator {
+            last_pose: None,
             floor_wn,
             scheme,
             params,
@@ -305,6 +333,10 @@ impl TwinEvaluator {
 
     /// The model at `pose` (x, y, z in metres); clamped to the measured box.
     pub fn model_at(&mut self, pose: [f64; 3]) -> &ModalModel {
+        if self.last_pose == Some(pose) {
+            return &self.current;
+        }
+        self.last_pose = Some(pose);
         let mut p = pose;
         for a in 0..3 {
             p[a] = if p[a].is_finite() {

@@ -1,0 +1,342 @@
+//! A measurement campaign becomes a twin: records grouped by pose, one FRF matrix and
+//! one fit per pose (in parallel), modes tracked across poses, leave-one-pose-out
+//! accuracy of the interpolation.
+
+use crate::error::{Error, Result};
+use crate::frf::{fit_percent, Frf};
+use crate::interpolate::{Method, TwinEvaluator};
+use crate::model::ModalModel;
+use crate::rational_fit::{fit_frf, refine_from, FitOptions};
+use crate::spectra::{estimate_frf, FrfOptions};
+use crate::timeseries::TimeSeries;
+use crate::twin::{
+    now_unix, ChannelFit, HistoryEntry, InterpolationInfo, LooEntry, OrderInfo, PoseModel, Twin,
+};
+use rayon::prelude::*;
+
+/// Options of [`identify_campaign`].
+#[derive(Debug, Clone)]
+pub struct CampaignOptions {
+    /// FRF estimation.
+    pub frf: FrfOptions,
+    /// Rational fit (order, band, weighting).
+    pub fit: FitOptions,
+    /// Records whose mean positions agree within this distance [m] share a pose.
+    pub pose_tol_m: f64,
+    /// Name written into the twin.
+    pub name: String,
+}
+
+impl Default for CampaignOptions {
+    fn default() -> Self {
+        CampaignOptions {
+            frf: FrfOptions::default(),
+            fit: FitOptions::default(),
+            pose_tol_m: 1e-3,
+            name: "machine".into(),
+        }
+    }
+}
+
+/// Records measured at one pose.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PoseGroup {
+    /// Mean axis position of the records [m].
+    pub pose: [f64; 3],
+    /// Indices into the record list.
+    pub records: Vec<usize>,
+}
+
+/// Groups records by their mean axis position (within `tol` metres).
+pub fn group_by_pose(records: &[TimeSeries], tol: f64) -> Vec<PoseGroup> {
+    let mut groups: Vec<PoseGroup> = Vec::new();
+    for (i, r) in records.iter().enumerate() {
+        let p = r.mean_position();
+        let hit = groups.iter_mut().find(|g| {
+            (0..3)
+                .map(|a| (g.pose[a] - p[a]).powi(2))
+                .sum::<f64>()
+                .sqrt()
+                <= tol
+        });
+        match hit {
+            Some(g) => g.records.push(i),
+            None => groups.push(PoseGroup {
+                pose: p,
+                records: vec![i],
+            }),
+        }
+    }
+    // stable order: by z, then y, then x
+    groups.sort_by(|a, b| {
+        (a.pose[2], a.pose[1], a.pose[0])
+            .partial_cmp(&(b.pose[2], b.pose[1], b.pose[0]))
+            .unwrap_or(std::cmp::Ordering::Equal)
+    });
+    groups
+}
+
+/// What [`identify_campaign`] found.
+#[derive(Debug, Clone)]
+pub struct CampaignResult {
+    /// The twin (one pose model per pose group, tracked modes).
+    pub twin: Twin,
+    /// Warnings from FRF estimation and tracking, per pose.
+    pub warnings: Vec<String>,
+}
+
+struct PoseFit {
+    pose: [f64; 3],
+    frf: Frf,
+    model: ModalModel,
+    order: OrderInfo,
+    sigma: Option<f64>,
+    sources: Vec<String>,
+    warnings: Vec<String>,
+}
+
+/// Weights the fit uses for `frf` (coherence-based by default), per channel per line.
+pub fn weights_for(frf: &Frf, opts: &FitOptions) -> Vec<Vec<f64>> {
+    crate::rational_fit::weights(frf, opts)
+}
+
+fn band_of(frf: &Frf, opts: &FitOptions) -> (f64, f64) {
+    let lo = frf.freqs_hz.first().copied().unwrap_or(0.0);
+    let hi = frf.freqs_hz.last().copied().unwrap_or(0.0);
+    opts.band_hz.map_or((lo, hi), |(a, b)| (a.max(lo), b.min(hi)))
+}
+
+/// Per-channel fit of `model` against `frf` within `band`.
+pub fn channel_fits(model: &ModalModel, frf: &Frf, band: (f64, f64)) -> Vec<ChannelFit> {
+    let b = frf.band(band.0, band.1);
+    b.channels
+        .iter()
+        .filter_map(|c| {
+            let ci = model.channel_index(c.channel)?;
+            let h: Vec<_> = b.freqs_hz.iter().map(|&f| model.eval_hz(ci, f)).collect();
+            Some(ChannelFit {
+                channel: c.channel,
+                fit_pct: fit_percent(&c.h, &h),
+            })
+        })
+        .collect()
+}
+
+/// Identifies a twin from a measurement campaign (one or many poses).
+///
+/// `progress(done, total)` is called as poses finish (from worker threads).
+pub fn identify_campaign(
+    records: &[TimeSeries],
+    opts: &CampaignOptions,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<CampaignResult> {
+    if records.is_empty() {
+        return Err(Error::BadInput("no data files given".into()));
+    }
+    let groups = group_by_pose(records, opts.pose_tol_m);
+    let total = groups.len();
+    let done = std::sync::atomic::AtomicUsize::new(0);
+    let fits: Vec<Result<PoseFit>> = groups
+        .par_iter()
+        .map(|g| {
+            let recs: Vec<TimeSeries> = g.records.iter().map(|&i| records[i].clone()).collect();
+            let est = estimate_frf(&recs, &opts.frf)?;
+            let res = fit_frf(&est.frf, &opts.fit).map_err(|e| match e {
+                Error::Numerical(m) => Error::Numerical(format!("pose {:?}: {m}", g.pose)),
+                other => other,
+            })?;
+            let mut model = res.model;
+            if let Some(s) = est.exp_window_sigma {
+                model.shift_poles(s);
+            }
+            let n = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+            progress(n, total);
+            Ok(PoseFit {
+                pose: g.pose,
+                order: OrderInfo {
+                    modes: model.modes.len(),
+                    automatic: res.automatic_order,
+                    stable_freqs_hz: res.diagram.stable_freqs_hz(),
+                },
+                frf: est.frf,
+                model,
+                sigma: est.exp_window_sigma,
+                sources: recs.iter().map(|r| r.source.clone()).collect(),
+                warnings: est.warnings,
+            })
+        })
+        .collect();
+    let mut fits: Vec<PoseFit> = fits.into_iter().collect::<Result<_>>()?;
+    let mut warnings: Vec<String> = fits
+        .iter()
+        .flat_map(|f| f.warnings.iter().map(move |w| format!("pose {:?}: {w}", f.pose)))
+        .collect();
+    if fits.len() > 1 {
+        warnings.extend(track_modes(&mut fits, opts)?);
+    }
+    let poses: Vec<PoseModel> = fits
+        .into_iter()
+        .map(|f| {
+            let band = band_of(&f.frf, &opts.fit);
+            let mut windowed = f.model.clone();
+            if let Some(s) = f.sigma {
+                windowed.shift_poles(-s);
+            }
+            PoseModel {
+                pose: f.pose,
+                fit: channel_fits(&windowed, &f.frf, band),
+                band_hz: [band.0, band.1],
+                model: f.model,
+                frf: f.frf,
+                order: f.order,
+                sources: f.sources,
+                frf_exp_window_sigma: f.sigma,
+            }
+        })
+        .collect();
+    let mut twin = Twin::new(&opts.name, poses);
+    twin.interpolation = interpolation_info(&twin, opts)?;
+    twin.history.push(HistoryEntry {
+        unix_time: now_unix(),
+        kind: "identify".into(),
+        files: records.iter().map(|r| r.source.clone()).collect(),
+        summary: format!(
+            "a-priori twin from {} records at {} poses",
+            records.len(),
+            twin.poses.len()
+        ),
+        figures: Default::default(),
+        previous_poses: Vec::new(),
+    });
+    Ok(CampaignResult { twin, warnings })
+}
+
+/// Makes every pose model carry the same modes in the same order.
+///
+/// The reference is the pose nearest the workspace centre among those with the most
+/// common mode count; its model is carried to the nearest not-yet-tracked pose and
+/// refined there (Levenberg–Marquardt from the neighbour's parameters: continuity of
+/// frequency, damping and residues), then on from there (Prim's order), so "mode 2"
+/// means the same physical mode everywhere.
+fn track_modes(fits: &mut [PoseFit], opts: &CampaignOptions) -> Result<Vec<String>> {
+    let mut warnings = Vec::new();
+    let n = fits.len();
+    let mut counts: Vec<usize> = fits.iter().map(|f| f.model.modes.len()).collect();
+    counts.sort_unstable();
+    let mut best = (0usize, 0usize); // (occurrences, count)
+    for &c in &counts {
+        let occ = counts.iter().filter(|&&x| x == c).count();
+        if occ > best.0 || (occ == best.0 && c > best.1) {
+            best = (occ, c);
+        }
+    }
+    let m = best.1;
+    let mut centre = [0.0; 3];
+    for f in fits.iter() {
+        for a in 0..3 {
+            centre[a] += f.pose[a] / n as f64;
+        }
+    }
+    let d2 = |p: &[f64; 3], q: &[f64; 3]| (0..3).map(|a| (p[a] - q[a]).powi(2)).sum::<f64>();
+    let reference = (0..n)
+        .filter(|&i| fits[i].model.modes.len() == m)
+        .min_by(|&a, &b| d2(&fits[a].pose, &centre).total_cmp(&d2(&fits[b].pose, &centre)))
+        .unwrap_or(0);
+    let mut tracked = vec![false; n];
+    tracked[reference] = true;
+    for _ in 1..n {
+        // nearest untracked pose to any tracked pose
+        let mut pick = (f64::INFINITY, 0usize, 0usize);
+        for i in (0..n).filter(|&i| !tracked[i]) {
+            for j in (0..n).filter(|&j| tracked[j]) {
+                let d = d2(&fits[i].pose, &fits[j].pose);
+                if d < pick.0 {
+                    pick = (d, i, j);
+                }
+            }
+        }
+        let (_, i, j) = pick;
+        let mut start = fits[j].model.clone();
+        // the neighbour's model is unwindowed; fit in the windowed domain of pose i
+        if let Some(s) = fits[i].sigma {
+            start.shift_poles(-s);
+        }
+        let w = weights_for(&fits[i].frf, &opts.fit);
+        let mut refined = refine_from(&start, &fits[i].frf, &w, &opts.fit)?;
+        let band = band_of(&fits[i].frf, &opts.fit);
+        let own = {
+            let mut own = fits[i].model.clone();
+            if let Some(s) = fits[i].sigma {
+                own.shift_poles(-s);
+            }
+            mean_fit(&channel_fits(&own, &fits[i].frf, band))
+        };
+        let carried = mean_fit(&channel_fits(&refined, &fits[i].frf, band));
+        if carried < own - 1.0 {
+            warnings.push(format!(
+                "pose {:?}: tracked model fits {carried:.2} % vs {own:.2} % for the pose's own \
+                 fit ({} modes); the pose may hold a mode its neighbours lack",
+                fits[i].pose,
+                fits[i].model.modes.len()
+            ));
+        }
+        if let Some(s) = fits[i].sigma {
+            refined.shift_poles(s);
+        }
+        fits[i].model = refined;
+        fits[i].order.modes = m;
+        tracked[i] = true;
+    }
+    Ok(warnings)
+}
+
+fn mean_fit(f: &[ChannelFit]) -> f64 {
+    if f.is_empty() {
+        return f64::NAN;
+    }
+    f.iter().map(|c| c.fit_pct).sum::<f64>() / f.len() as f64
+}
+
+/// Method name and leave-one-pose-out figures of a twin's interpolation.
+pub fn interpolation_info(twin: &Twin, opts: &CampaignOptions) -> Result<InterpolationInfo> {
+    let ev = TwinEvaluator::new(twin)?;
+    let mut info = InterpolationInfo {
+        method: match ev.method() {
+            Method::Single => "single",
+            Method::TensorGrid => "tensor_grid",
+            Method::Rbf => "rbf",
+        }
+        .into(),
+        ..Default::default()
+    };
+    if twin.poses.len() >= 3 {
+        let mut methods = Vec::new();
+        for i in 0..twin.poses.len() {
+            let others: Vec<([f64; 3], &ModalModel)> = twin
+                .poses
+                .iter()
+                .enumerate()
+                .filter(|(j, _)| *j != i)
+                .map(|(_, p)| (p.pose, &p.model))
+                .collect();
+            let mut ev = TwinEvaluator::from_poses(&others)?;
+            methods.push(ev.method());
+            let p = &twin.poses[i];
+            let mut m = ev.model_at(p.pose).clone();
+            if let Some(s) = p.frf_exp_window_sigma {
+                m.shift_poles(-s);
+            }
+            let band = band_of(&p.frf, &opts.fit);
+            info.leave_one_out.push(LooEntry {
+                pose: p.pose,
+                fit: channel_fits(&m, &p.frf, band),
+            });
+        }
+        methods.dedup();
+        info.leave_one_out_method = format!(
+            "each pose predicted from the others ({:?}); fit against its measured FRF",
+            methods
+        );
+    }
+    Ok(info)
+}
