@@ -1,7 +1,24 @@
-//! `mtwin`: the command line. Thin glue over the `identify` library.
+//! `mtwin`: the command line. Thin glue over the `identify` library: parse arguments,
+//! call one library function, print a summary. Exit codes (SPEC section 1): 0 success,
+//! 2 bad usage or bad input, 1 any other failure.
+#![forbid(unsafe_code)]
+
+mod cli;
+
+use clap::Parser;
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
-    eprintln!("mtwin: work in progress");
-    ExitCode::from(1)
+    let args = cli::Cli::parse();
+    match cli::run(args) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("mtwin: error: {e:#}");
+            if cli::is_bad_input(&e) {
+                ExitCode::from(2)
+            } else {
+                ExitCode::from(1)
+            }
+        }
+    }
 }

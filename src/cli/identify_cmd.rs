@@ -1,0 +1,150 @@
+//! `mtwin identify`.
+
+use super::{check_output_not_input, frf::frf_options, read_series, BadInput, Output};
+use anyhow::{Context, Result};
+use identify::campaign::{identify_campaign, CampaignOptions};
+use identify::rational_fit::FitOptions;
+use std::path::PathBuf;
+
+/// Arguments of `mtwin identify`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Time-series CSV files of the campaign (grouped by pose and excitation axis).
+    #[arg(required = true)]
+    pub files: Vec<PathBuf>,
+    /// Output twin file (JSON).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Number of modes (pole pairs) instead of the automatic choice from the
+    /// stabilization diagram.
+    #[arg(long)]
+    pub order: Option<usize>,
+    /// Lower end of the fitted band [Hz].
+    #[arg(long)]
+    pub fmin: Option<f64>,
+    /// Upper end of the fitted band [Hz].
+    #[arg(long)]
+    pub fmax: Option<f64>,
+    /// FRF estimator: h1, h2, hv.
+    #[arg(long, default_value = "h1", value_parser = ["h1", "h2", "hv"])]
+    pub estimator: String,
+    /// Excitation: auto, impact, continuous, chirp.
+    #[arg(long, default_value = "auto", value_parser = ["auto", "impact", "continuous", "chirp"])]
+    pub excitation: String,
+    /// Records within this distance [m] share a pose.
+    #[arg(long, default_value_t = 1e-3)]
+    pub pose_tol: f64,
+    /// Name of the machine, written into the twin.
+    #[arg(long, default_value = "machine")]
+    pub name: String,
+}
+
+/// Runs `mtwin identify`.
+pub fn run(a: Args, out: &Output) -> Result<()> {
+    check_output_not_input(&a.out, &a.files)?;
+    if a.order == Some(0) {
+        return Err(BadInput("--order must be at least 1 (number of modes)".into()).into());
+    }
+    let t0 = std::time::Instant::now();
+    let series = read_series(&a.files, out)?;
+    let t_read = t0.elapsed();
+    let band = match (a.fmin, a.fmax) {
+        (None, None) => None,
+        (lo, hi) => Some((lo.unwrap_or(0.0), hi.unwrap_or(f64::INFINITY))),
+    };
+    let opts = CampaignOptions {
+        frf: frf_options(&a.estimator, &a.excitation, None),
+        fit: FitOptions {
+            n_modes: a.order,
+            band_hz: band,
+            ..FitOptions::default()
+        },
+        pose_tol_m: a.pose_tol,
+        name: a.name.clone(),
+    };
+    let bar = (!out.quiet && !out.json).then(|| {
+        let b = indicatif::ProgressBar::new(0);
+        b.set_style(
+            indicatif::ProgressStyle::with_template(
+                "identify [{bar:30}] {pos}/{len} poses {elapsed}",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        b
+    });
+    let progress = |done: usize, total: usize| {
+        if let Some(b) = &bar {
+            b.set_length(total as u64);
+            b.set_position(done as u64);
+        }
+    };
+    let mut res = identify_campaign(&series, &opts, &progress).context("identification")?;
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
+    res.twin.provenance.command = std::env::args().collect::<Vec<_>>().join(" ");
+    res.twin.save(&a.out)?;
+    for w in &res.warnings {
+        out.say(format!("warning: {w}"));
+    }
+    let twin = &res.twin;
+    out.say(format!(
+        "{} records, {} poses, channels {} (read {:.2} s, total {:.2} s)",
+        series.len(),
+        twin.poses.len(),
+        twin.channels
+            .iter()
+            .map(|c| c.name())
+            .collect::<Vec<_>>()
+            .join(","),
+        t_read.as_secs_f64(),
+        t0.elapsed().as_secs_f64()
+    ));
+    for p in &twin.poses {
+        let fits: Vec<String> = p
+            .fit
+            .iter()
+            .map(|f| format!("{} {:.2} %", f.channel, f.fit_pct))
+            .collect();
+        out.say(format!(
+            "  pose ({:.3}, {:.3}, {:.3}) m: {} modes ({}), band {:.0}-{:.0} Hz, fit {}",
+            p.pose[0],
+            p.pose[1],
+            p.pose[2],
+            p.order.modes,
+            if p.order.automatic {
+                "automatic"
+            } else {
+                "--order"
+            },
+            p.band_hz[0],
+            p.band_hz[1],
+            fits.join(", ")
+        ));
+    }
+    let loo = &twin.interpolation.leave_one_out;
+    if !loo.is_empty() {
+        let all: Vec<f64> = loo
+            .iter()
+            .flat_map(|e| e.fit.iter().map(|f| f.fit_pct))
+            .collect();
+        let min = all.iter().copied().fold(f64::INFINITY, f64::min);
+        let mean = all.iter().sum::<f64>() / all.len().max(1) as f64;
+        out.say(format!(
+            "  interpolation {}: leave-one-pose-out fit mean {mean:.2} %, worst {min:.2} %",
+            twin.interpolation.method
+        ));
+    }
+    out.say(format!("twin -> {}", a.out.display()));
+    out.json(&serde_json::json!({
+        "out": a.out,
+        "poses": twin.poses.iter().map(|p| serde_json::json!({
+            "pose": p.pose, "modes": p.order.modes, "automatic_order": p.order.automatic,
+            "fit": p.fit, "natural_freqs_hz": p.model.modes.iter().map(|m| m.freq_hz()).collect::<Vec<_>>(),
+            "damping": p.model.modes.iter().map(|m| m.zeta).collect::<Vec<_>>(),
+        })).collect::<Vec<_>>(),
+        "interpolation": twin.interpolation,
+        "warnings": res.warnings,
+    }));
+    Ok(())
+}

@@ -1,0 +1,165 @@
+//! Argument definitions and dispatch.
+
+mod eval;
+mod frf;
+mod identify_cmd;
+mod simulate;
+
+use anyhow::Result;
+use clap::{Parser, Subcommand};
+use std::path::{Path, PathBuf};
+
+/// mtwin — a lifetime-adaptive digital twin of a machine tool's tool-center-point
+/// dynamics, identified from impact/chirp tests, refitted from operating data and
+/// exported as an FMI 2.0 co-simulation FMU.
+#[derive(Debug, Parser)]
+#[command(name = "mtwin", version, about, long_about = None)]
+pub struct Cli {
+    /// Print nothing but errors.
+    #[arg(long, short, global = true)]
+    pub quiet: bool,
+    /// Print the summary as JSON on stdout.
+    #[arg(long, global = true)]
+    pub json: bool,
+    #[command(subcommand)]
+    pub cmd: Cmd,
+}
+
+/// The commands (SPEC section 1).
+#[derive(Debug, Subcommand)]
+pub enum Cmd {
+    /// FRF estimate (H1 by default) and coherence from force/response time series.
+    ///
+    /// Example: mtwin frf impact_x.csv impact_y.csv --out frf.csv
+    Frf(frf::Args),
+    /// The a-priori twin from a measurement campaign (one or more poses).
+    ///
+    /// Example: mtwin identify campaign/*.csv --out twin.json
+    Identify(identify_cmd::Args),
+    /// The twin's FRF at any pose (interpolated between measured poses).
+    ///
+    /// Example: mtwin eval --twin twin.json --at 0.2,0.1,0.05 --out frf.csv
+    Eval(eval::Args),
+    /// Predicted TCP displacement for the forces and axis positions in a data file.
+    ///
+    /// Example: mtwin simulate --twin twin.json cut.csv --out pred.csv
+    Simulate(simulate::Args),
+}
+
+/// Runs one parsed command line.
+pub fn run(cli: Cli) -> Result<()> {
+    let out = Output {
+        quiet: cli.quiet,
+        json: cli.json,
+    };
+    match cli.cmd {
+        Cmd::Frf(a) => frf::run(a, &out),
+        Cmd::Identify(a) => identify_cmd::run(a, &out),
+        Cmd::Eval(a) => eval::run(a, &out),
+        Cmd::Simulate(a) => simulate::run(a, &out),
+    }
+}
+
+/// How to print.
+#[derive(Debug, Clone, Copy)]
+pub struct Output {
+    /// Errors only.
+    pub quiet: bool,
+    /// JSON summary on stdout.
+    pub json: bool,
+}
+
+impl Output {
+    /// A human line on stderr unless quiet or JSON.
+    pub fn say(&self, msg: impl AsRef<str>) {
+        if !self.quiet && !self.json {
+            eprintln!("{}", msg.as_ref());
+        }
+    }
+
+    /// The JSON summary on stdout when `--json`.
+    pub fn json(&self, v: &serde_json::Value) {
+        if self.json {
+            println!("{}", serde_json::to_string_pretty(v).unwrap_or_default());
+        }
+    }
+}
+
+/// Marks an error as the user's input (exit code 2).
+#[derive(Debug)]
+pub struct BadInput(pub String);
+
+impl std::fmt::Display for BadInput {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for BadInput {}
+
+/// True when the error chain holds a bad-input error.
+pub fn is_bad_input(e: &anyhow::Error) -> bool {
+    e.chain().any(|c| {
+        c.downcast_ref::<BadInput>().is_some()
+            || c.downcast_ref::<identify::Error>()
+                .is_some_and(identify::Error::is_bad_input)
+    })
+}
+
+/// Refuses to overwrite one of the inputs with an output.
+pub fn check_output_not_input(out: &Path, inputs: &[PathBuf]) -> Result<()> {
+    let canon = |p: &Path| std::fs::canonicalize(p).ok();
+    if let Some(o) = canon(out) {
+        if inputs
+            .iter()
+            .any(|i| canon(i).as_deref() == Some(o.as_path()))
+        {
+            return Err(BadInput(format!(
+                "{}: the output would overwrite an input file; choose another --out",
+                out.display()
+            ))
+            .into());
+        }
+    }
+    Ok(())
+}
+
+/// Parses `X,Y,Z` in metres.
+pub fn parse_pose(s: &str) -> Result<[f64; 3], String> {
+    let v: Vec<&str> = s.split(',').map(str::trim).collect();
+    if v.len() != 3 {
+        return Err(format!(
+            "expected X,Y,Z in metres (e.g. 0.2,0.1,0.05), got '{s}'"
+        ));
+    }
+    let mut p = [0.0; 3];
+    for (i, t) in v.iter().enumerate() {
+        p[i] = t
+            .parse::<f64>()
+            .ok()
+            .filter(|x| x.is_finite())
+            .ok_or_else(|| format!("'{t}' is not a finite number (expected X,Y,Z in metres)"))?;
+    }
+    Ok(p)
+}
+
+/// Reads time-series files in parallel, printing reader warnings.
+pub fn read_series(
+    files: &[PathBuf],
+    out: &Output,
+) -> Result<Vec<identify::timeseries::TimeSeries>> {
+    use rayon::prelude::*;
+    let res: Vec<identify::Result<(identify::timeseries::TimeSeries, Vec<String>)>> = files
+        .par_iter()
+        .map(|f| identify::read::read_timeseries_with_warnings(f))
+        .collect();
+    let mut series = Vec::with_capacity(res.len());
+    for r in res {
+        let (ts, warns) = r?;
+        for w in warns {
+            out.say(format!("warning: {}: {w}", ts.source));
+        }
+        series.push(ts);
+    }
+    Ok(series)
+}
