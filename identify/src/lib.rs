@@ -39,6 +39,7 @@ pub mod frf;
 pub mod interpolate;
 pub mod modal_update;
 pub mod model;
+pub mod operating;
 pub mod rational_fit;
 pub mod read;
 pub mod simulate;
