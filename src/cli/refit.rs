@@ -1,0 +1,102 @@
+//! `mtwin refit`.
+
+use super::{check_output_not_input, read_series, Output};
+use anyhow::{Context, Result};
+use identify::refit::{refit, RefitMethod, RefitOptions};
+use identify::twin::Twin;
+use std::path::PathBuf;
+
+/// Arguments of `mtwin refit`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// The current twin file (never overwritten).
+    #[arg(long)]
+    pub twin: PathBuf,
+    /// Operating data: forces, responses and axis positions while milling.
+    #[arg(required = true)]
+    pub files: Vec<PathBuf>,
+    /// The updated twin (with the whole history).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Also export the updated FMU here.
+    #[arg(long)]
+    pub fmu: Option<PathBuf>,
+    /// modal (mtwin's direct modal update, default) or paper (intermediate FRF + weighted refit).
+    #[arg(long, default_value = "modal", value_parser = ["modal", "paper"])]
+    pub method: String,
+    /// Refit when the simulated response fits worse than 100 - this [%].
+    #[arg(long, default_value_t = 5.0)]
+    pub drift_threshold: f64,
+    /// Refit even when no drift is detected.
+    #[arg(long)]
+    pub force: bool,
+    /// Paper's PSD threshold on the response [m²/Hz] (default: automatic).
+    #[arg(long)]
+    pub psd_threshold: Option<f64>,
+    /// Minimum coherence of a line to be used.
+    #[arg(long, default_value_t = 0.8)]
+    pub min_coherence: f64,
+    /// Length [m] over which the change spreads to other poses (weight exp(-(d/L)²));
+    /// default half the workspace diagonal; `inf` = everywhere alike.
+    #[arg(long)]
+    pub spread_length: Option<f64>,
+}
+
+/// Runs `mtwin refit`.
+pub fn run(a: Args, out: &Output) -> Result<()> {
+    let mut inputs = a.files.clone();
+    inputs.push(a.twin.clone());
+    check_output_not_input(&a.out, &inputs)?;
+    if let Some(f) = &a.fmu {
+        check_output_not_input(f, &inputs)?;
+    }
+    let twin = Twin::load(&a.twin)?;
+    let series = read_series(&a.files, out)?;
+    let opts = RefitOptions {
+        method: if a.method == "paper" {
+            RefitMethod::Paper
+        } else {
+            RefitMethod::Modal
+        },
+        drift_threshold_pct: a.drift_threshold,
+        force: a.force,
+        psd_threshold: a.psd_threshold,
+        min_coherence: a.min_coherence,
+        spread_length_m: a.spread_length,
+        ..RefitOptions::default()
+    };
+    let (mut new, rep) = refit(&twin, &series, &opts).context("refit")?;
+    new.provenance.command = std::env::args().collect::<Vec<_>>().join(" ");
+    new.save(&a.out)?;
+    out.say(format!(
+        "drift check at pose {:?}: simulated response fit {:.2} %, operating FRF misfit {:.1} σ -> {}",
+        rep.pose,
+        rep.drift_fit_pct,
+        rep.drift_chi,
+        if rep.updated { "updated" } else { "no change needed" }
+    ));
+    for m in &rep.modes {
+        out.say(format!(
+            "  mode {}: {:.2} Hz -> {:.2} Hz, damping {:.2} % -> {:.2} %",
+            m.mode,
+            m.freq_before_hz,
+            m.freq_after_hz,
+            100.0 * m.zeta_before,
+            100.0 * m.zeta_after
+        ));
+    }
+    if rep.updated {
+        out.say(format!(
+            "  {} lines used; simulated response fit after: {:.2} %",
+            rep.lines_hz.len(),
+            rep.fit_after_pct
+        ));
+    }
+    if let Some(f) = &a.fmu {
+        super::export::export(&new, f)?;
+        out.say(format!("updated FMU -> {}", f.display()));
+    }
+    out.say(format!("twin ({} history entries) -> {}", new.history.len(), a.out.display()));
+    out.json(&serde_json::json!({"out": a.out, "report": rep, "fmu": a.fmu}));
+    Ok(())
+}
