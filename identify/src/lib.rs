@@ -35,6 +35,7 @@
 pub mod atomic;
 pub mod axis;
 pub mod error;
+pub mod extended;
 pub mod frf;
 pub mod interpolate;
 pub mod modal_update;

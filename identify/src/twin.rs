@@ -86,6 +86,49 @@ pub struct PoseModel {
     pub frf_exp_window_sigma: Option<f64>,
 }
 
+/// A sinusoidal vibration from outside the machine, added to the response.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Sinusoid {
+    /// Frequency [Hz].
+    pub freq_hz: f64,
+    /// Response axis it appears on.
+    pub axis: crate::axis::Axis,
+    /// Cosine amplitude [m] (response = a cos(2πft) + b sin(2πft)).
+    pub a: f64,
+    /// Sine amplitude [m].
+    pub b: f64,
+}
+
+/// A cubic stiffness on one tracked mode: `q̈ + 2ζω q̇ + ω² q (1 + κ q²) = F`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CubicStiffness {
+    /// Index of the tracked mode.
+    pub mode: usize,
+    /// κ [1/(modal coordinate)²]; > 0 hardening, < 0 softening.
+    pub kappa: f64,
+}
+
+/// Model extensions beyond the linear modal twin (added by `diagnose`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+pub struct Extensions {
+    /// Constant delay [s] of the response behind the force (positive = response lags).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub delay_s: Option<f64>,
+    /// External vibrations added to the response.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub disturbance: Vec<Sinusoid>,
+    /// Nonlinear stiffness terms.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub cubic: Vec<CubicStiffness>,
+}
+
+impl Extensions {
+    /// True when the twin is purely linear time-invariant.
+    pub fn is_empty(&self) -> bool {
+        self.delay_s.is_none() && self.disturbance.is_empty() && self.cubic.is_empty()
+    }
+}
+
 /// Leave-one-pose-out accuracy of the interpolation at one measured pose.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct LooEntry {
@@ -173,9 +216,9 @@ pub struct Twin {
     /// Settings and figures of the interpolation between poses.
     #[serde(default)]
     pub interpolation: InterpolationInfo,
-    /// Model extensions added by `diagnose` (delay, nonlinear terms ...).
+    /// Model extensions added by `diagnose` (delay, disturbance, nonlinear terms).
     #[serde(default)]
-    pub extensions: serde_json::Value,
+    pub extensions: Extensions,
     /// Append-only history of identifications, refits and extensions.
     pub history: Vec<HistoryEntry>,
     /// Tool and command that wrote the file.
@@ -199,7 +242,7 @@ impl Twin {
             channels,
             poses,
             interpolation: InterpolationInfo::default(),
-            extensions: serde_json::Value::Null,
+            extensions: Extensions::default(),
             history: Vec::new(),
             provenance: Provenance {
                 tool: format!("mtwin {}", env!("CARGO_PKG_VERSION")),

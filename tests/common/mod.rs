@@ -1,0 +1,40 @@
+//! Helpers shared by the command-line integration tests.
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// `../shared/data` (the real measured data), also found via `MTWIN_SHARED`.
+pub fn shared_data() -> PathBuf {
+    let local = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data");
+    if local.is_dir() {
+        return local;
+    }
+    if let Ok(p) = std::env::var("MTWIN_SHARED") {
+        return PathBuf::from(p).join("data");
+    }
+    PathBuf::from("/work/shared/data")
+}
+
+/// Runs the `mtwin` binary.
+pub fn mtwin(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_mtwin"))
+        .args(args)
+        .output()
+        .expect("run mtwin")
+}
+
+/// stderr as text.
+pub fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// A fresh temporary directory.
+pub fn tmp() -> tempfile::TempDir {
+    tempfile::tempdir().expect("tempdir")
+}
+
+/// Path as &str.
+pub fn s(p: &Path) -> &str {
+    p.to_str().expect("utf-8 path")
+}
