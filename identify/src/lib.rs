@@ -34,6 +34,7 @@
 
 pub mod atomic;
 pub mod axis;
+pub mod diagnose;
 pub mod error;
 pub mod extended;
 pub mod frf;

@@ -268,6 +268,45 @@ pub fn update_modes(
     })
 }
 
+/// `target` changed like `old → new` with weight `w`: relative when old and new share a
+/// sign and old is not negligible, absolute otherwise.
+fn scale_change(target: f64, old: f64, new: f64, w: f64) -> f64 {
+    if old.abs() > 1e-12 * (new.abs() + old.abs()) && (new / old) > 0.0 {
+        target * (1.0 + w * (new / old - 1.0))
+    } else {
+        target + w * (new - old)
+    }
+}
+
+/// Applies the change `old → new` (models at the operating pose) to `target` with
+/// weight `w` in [0, 1].
+pub fn apply_change(target: &mut ModalModel, old: &ModalModel, new: &ModalModel, w: f64) {
+    for k in 0..target.modes.len().min(old.modes.len()) {
+        let r = new.modes[k].wn / old.modes[k].wn;
+        target.modes[k].wn *= r.powf(w);
+        let dz = (new.modes[k].zeta / old.modes[k].zeta).ln();
+        target.modes[k].zeta *= (w * dz).exp();
+        for ((t, o), n) in target
+            .channels
+            .iter_mut()
+            .zip(&old.channels)
+            .zip(&new.channels)
+        {
+            let nk = &mut t.num[k];
+            nk.b0 = scale_change(nk.b0, o.num[k].b0, n.num[k].b0, w);
+            nk.b1 = scale_change(nk.b1, o.num[k].b1, n.num[k].b1, w);
+        }
+    }
+    for ((t, o), n) in target
+        .channels
+        .iter_mut()
+        .zip(&old.channels)
+        .zip(&new.channels)
+    {
+        t.d += w * (n.d - o.d);
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -26,7 +26,7 @@ use crate::campaign::{channel_fits, weights_for};
 use crate::error::{Error, Result};
 use crate::frf::{fit_percent_real, Frf};
 use crate::interpolate::{simulate_twin, TwinEvaluator};
-use crate::modal_update::{update_modes, Points, Prior};
+use crate::modal_update::{apply_change, update_modes, Points, Prior};
 use crate::model::ModalModel;
 use crate::operating::{operating_spectra, OperatingSpectra};
 use crate::rational_fit::{refine_from, FitOptions};
@@ -357,42 +357,6 @@ fn nearest(grid: &[f64], f: f64) -> Option<usize> {
     cands
         .into_iter()
         .min_by(|&a, &b| (grid[a] - f).abs().total_cmp(&(grid[b] - f).abs()))
-}
-
-/// Applies the change `old → new` (models at the operating pose) to `target` with
-/// weight `w` in [0, 1].
-pub fn apply_change(target: &mut ModalModel, old: &ModalModel, new: &ModalModel, w: f64) {
-    for k in 0..target.modes.len().min(old.modes.len()) {
-        let r = new.modes[k].wn / old.modes[k].wn;
-        target.modes[k].wn *= r.powf(w);
-        let dz = (new.modes[k].zeta / old.modes[k].zeta).ln();
-        target.modes[k].zeta *= (w * dz).exp();
-        for ((t, o), n) in target
-            .channels
-            .iter_mut()
-            .zip(&old.channels)
-            .zip(&new.channels)
-        {
-            for (b_t, b_o, b_n) in [
-                (&mut t.num[k].b0, o.num[k].b0, n.num[k].b0),
-                (&mut t.num[k].b1, o.num[k].b1, n.num[k].b1),
-            ] {
-                if b_o.abs() > 1e-12 * (b_n.abs() + b_o.abs()) && (b_n / b_o) > 0.0 {
-                    *b_t *= 1.0 + w * (b_n / b_o - 1.0);
-                } else {
-                    *b_t += w * (b_n - b_o);
-                }
-            }
-        }
-    }
-    for ((t, o), n) in target
-        .channels
-        .iter_mut()
-        .zip(&old.channels)
-        .zip(&new.channels)
-    {
-        t.d += w * (n.d - o.d);
-    }
 }
 
 /// Lifetime refit of `twin` from operating records (forces, responses, axis positions).
