@@ -4,6 +4,7 @@
 #![forbid(unsafe_code)]
 
 mod cli;
+mod report;
 
 use clap::Parser;
 use std::process::ExitCode;

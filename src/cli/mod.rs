@@ -1,8 +1,11 @@
 //! Argument definitions and dispatch.
 
+mod diagnose;
 mod eval;
+mod export;
 mod frf;
 mod identify_cmd;
+mod refit;
 mod simulate;
 
 use anyhow::Result;
@@ -44,6 +47,19 @@ pub enum Cmd {
     ///
     /// Example: mtwin simulate --twin twin.json cut.csv --out pred.csv
     Simulate(simulate::Args),
+    /// Lifetime update from operating data; keeps the whole history in the twin file.
+    ///
+    /// Example: mtwin refit --twin twin.json cut1.csv --out twin2.json --fmu twin2.fmu
+    Refit(refit::Args),
+    /// What the twin gets wrong on measured data, the named cause, the extended model and
+    /// the measured gain on held-out data.
+    ///
+    /// Example: mtwin diagnose --twin twin.json test.csv --out diag/
+    Diagnose(diagnose::Args),
+    /// FMI 2.0 co-simulation FMU of the twin.
+    ///
+    /// Example: mtwin export --twin twin.json --out machine.fmu
+    Export(export::Args),
 }
 
 /// Runs one parsed command line.
@@ -57,6 +73,9 @@ pub fn run(cli: Cli) -> Result<()> {
         Cmd::Identify(a) => identify_cmd::run(a, &out),
         Cmd::Eval(a) => eval::run(a, &out),
         Cmd::Simulate(a) => simulate::run(a, &out),
+        Cmd::Refit(a) => refit::run(a, &out),
+        Cmd::Diagnose(a) => diagnose::run(a, &out),
+        Cmd::Export(a) => export::run(a, &out),
     }
 }
 

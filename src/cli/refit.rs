@@ -96,7 +96,11 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
         super::export::export(&new, f)?;
         out.say(format!("updated FMU -> {}", f.display()));
     }
-    out.say(format!("twin ({} history entries) -> {}", new.history.len(), a.out.display()));
+    out.say(format!(
+        "twin ({} history entries) -> {}",
+        new.history.len(),
+        a.out.display()
+    ));
     out.json(&serde_json::json!({"out": a.out, "report": rep, "fmu": a.fmu}));
     Ok(())
 }
