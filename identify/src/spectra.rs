@@ -458,8 +458,15 @@ impl Accumulator {
                         Estimator::H1 => gfy / gff,
                         Estimator::H2 if gfy.norm_sqr() > 0.0 => gyy / gfy.conj(),
                         Estimator::Hv if gfy.norm_sqr() > 0.0 => {
+                            // (Gyy - Gff + S) / (2 Gyf), S = sqrt((Gff-Gyy)² + 4|Gfy|²),
+                            // in the form without cancellation for either sign.
                             let d = gff - gyy;
-                            (gyy - gff + (d * d + 4.0 * gfy.norm_sqr()).sqrt()) / (2.0 * gfy.conj())
+                            let s = (d * d + 4.0 * gfy.norm_sqr()).sqrt();
+                            if d >= 0.0 {
+                                2.0 * gfy / (d + s)
+                            } else {
+                                (s - d) / (2.0 * gfy.conj())
+                            }
                         }
                         _ => Complex64::default(),
                     };
