@@ -931,7 +931,14 @@ mod impact {
             let end = (h.start + n).min(h.end);
             for a in rec.response_axes() {
                 let y = &rec.response(a).unwrap_or(&[])[h.start..end];
-                let peak = y.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+                // Peak of the free vibration after the pulse (the impulsive part of an
+                // acceleration during the pulse is not what has to decay).
+                let after = (h.pulse_end + (h.pulse_end - h.pulse_start)).saturating_sub(h.start);
+                let peak = y
+                    .get(after.min(y.len())..)
+                    .unwrap_or(&[])
+                    .iter()
+                    .fold(0.0f64, |m, v| m.max(v.abs()));
                 if peak <= 0.0 {
                     continue;
                 }
@@ -1099,9 +1106,13 @@ mod impact {
                 |a, b| if b.1 > a.1 { b } else { a },
             );
         if let Some(i) = (h.pulse_end..h.end).find(|&i| g(i) > io.double_hit_fraction * peak) {
+            let second = (i..h.end)
+                .take_while(|&j| g(j) > 0.02 * peak)
+                .map(g)
+                .fold(0.0, f64::max);
             return Err(format!(
                 "double hit: a second pulse of {:.0} % of the hit's force {:.4} s after it; hit once and let the hammer rebound away",
-                100.0 * g(i) / peak,
+                100.0 * second / peak,
                 (i - p) as f64 * rec.dt
             ));
         }
