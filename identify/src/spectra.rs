@@ -367,7 +367,7 @@ impl RealDft {
 
 /// Number of lines kept for a DFT of length n: k = 1 .. (n+1)/2 (no DC, no Nyquist).
 fn n_lines(n: usize) -> usize {
-    (n + 1) / 2 - 1
+    n.div_ceil(2) - 1
 }
 
 /// Accumulated auto and cross spectra of one input group.
@@ -401,17 +401,17 @@ impl Accumulator {
     fn add(&mut self, fs: &[Vec<Complex64>], ys: &[Vec<Complex64>]) {
         let (ni, no) = (self.inputs.len(), self.outputs.len());
         for k in 0..self.nl {
-            for i in 0..ni {
-                let fi = fs[i][k].conj();
-                for j in 0..ni {
-                    self.gff[(k * ni + i) * ni + j] += fi * fs[j][k];
+            for (i, fsi) in fs.iter().enumerate() {
+                let fi = fsi[k].conj();
+                for (j, fsj) in fs.iter().enumerate() {
+                    self.gff[(k * ni + i) * ni + j] += fi * fsj[k];
                 }
-                for o in 0..no {
-                    self.gfy[(k * ni + i) * no + o] += fi * ys[o][k];
+                for (o, yo) in ys.iter().enumerate() {
+                    self.gfy[(k * ni + i) * no + o] += fi * yo[k];
                 }
             }
-            for o in 0..no {
-                self.gyy[k * no + o] += ys[o][k].norm_sqr();
+            for (o, yo) in ys.iter().enumerate() {
+                self.gyy[k * no + o] += yo[k].norm_sqr();
             }
         }
         self.averages += 1;

@@ -1,6 +1,8 @@
 //! Time-series and FRF CSV reading: every bad input names line and column; round trips;
 //! generated valid files parse to the same numbers; the real data files read.
 
+#![allow(clippy::needless_range_loop)] // naive reference code reads best with indices
+
 use identify::axis::{Axis, Channel};
 use identify::frf::{Frf, FrfChannel};
 use identify::read::{

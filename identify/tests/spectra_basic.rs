@@ -1,6 +1,8 @@
 //! Welch H1/H2/Hv against a naive implementation written from the definition (direct
 //! O(n²) DFT), over odd, prime and power-of-two lengths; MIMO H1; option errors.
 
+#![allow(clippy::needless_range_loop)] // naive reference code reads best with indices
+
 mod spectra_common;
 
 use identify::axis::{Axis, Channel};
@@ -13,7 +15,7 @@ use std::f64::consts::PI;
 /// Direct DFT lines 1 ..= (n+1)/2 - 1 of `x` (length n).
 fn naive_dft(x: &[f64]) -> Vec<Complex64> {
     let n = x.len();
-    (1..(n + 1) / 2)
+    (1..n.div_ceil(2))
         .map(|k| {
             x.iter()
                 .enumerate()
@@ -31,7 +33,7 @@ fn naive_welch(f: &[f64], y: &[f64], n: usize) -> [Vec<Complex64>; 4] {
         .map(|i| 0.5 - 0.5 * (2.0 * PI * i as f64 / n as f64).cos())
         .collect();
     let hop = n - (0.5 * n as f64).round() as usize;
-    let nl = (n + 1) / 2 - 1;
+    let nl = n.div_ceil(2) - 1;
     let (mut gff, mut gyy) = (vec![0.0; nl], vec![0.0; nl]);
     let mut gfy = vec![Complex64::new(0.0, 0.0); nl];
     let mut s = 0;
@@ -104,7 +106,7 @@ fn welch_matches_naive_definition() {
             let out = estimate_frf(&[r], &opts).unwrap();
             let ch = &out.frf.channels[0];
             assert_eq!(ch.channel, Channel::new(Axis::X, Axis::X));
-            let nl = (n + 1) / 2 - 1;
+            let nl = n.div_ceil(2) - 1;
             assert_eq!(out.frf.freqs_hz.len(), nl);
             assert!((out.df_hz - 1.0 / (n as f64 * dt)).abs() < 1e-12);
             for k in 0..nl {

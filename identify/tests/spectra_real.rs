@@ -1,5 +1,7 @@
 //! The real impact-hammer test (ladisk/pyFRF, 5 hits): hits found, coherence, resonances.
 
+#![allow(clippy::needless_range_loop)] // naive reference code reads best with indices
+
 mod spectra_common;
 
 use identify::read::read_timeseries;
