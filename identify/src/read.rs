@@ -48,6 +48,7 @@ fn numbered_lines(text: &str) -> impl Iterator<Item = (usize, &str)> {
 }
 
 /// Parses one numeric cell; `column` names it in the error.
+#[cold]
 fn parse_cell(cell: &str, file: &Path, line: usize, column: &str) -> Result<f64> {
     let s = cell.trim();
     if s.is_empty() {
@@ -73,6 +74,80 @@ fn parse_cell(cell: &str, file: &Path, line: usize, column: &str) -> Result<f64>
             format!("'{s}' is not a number; use plain decimal numbers with '.' as decimal point (e.g. 1.5e-3)"),
         )),
     }
+}
+
+/// Exact powers of ten representable in an f64.
+const POW10: [f64; 23] = [
+    1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16,
+    1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
+];
+
+/// Clinger's fast path: plain decimals (`-12.5`, `3.9e-5`) whose digits fit in 2⁵³ and
+/// whose decimal exponent is within ±22 are converted exactly (one correctly rounded
+/// multiplication or division of two exact values). `None` = use the full parser.
+#[inline]
+fn fast_f64(s: &str) -> Option<f64> {
+    let b = s.as_bytes();
+    let (neg, mut i) = match b.first()? {
+        b'-' => (true, 1),
+        b'+' => (false, 1),
+        _ => (false, 0),
+    };
+    let mut mant: u64 = 0;
+    let mut digits = 0;
+    let mut exp10: i32 = 0;
+    let start = i;
+    while i < b.len() && b[i].is_ascii_digit() {
+        mant = mant.wrapping_mul(10).wrapping_add((b[i] - b'0') as u64);
+        digits += 1;
+        i += 1;
+    }
+    if i < b.len() && b[i] == b'.' {
+        i += 1;
+        while i < b.len() && b[i].is_ascii_digit() {
+            mant = mant.wrapping_mul(10).wrapping_add((b[i] - b'0') as u64);
+            digits += 1;
+            exp10 -= 1;
+            i += 1;
+        }
+    }
+    if digits == 0 || i == start {
+        return None;
+    }
+    if i < b.len() && (b[i] == b'e' || b[i] == b'E') {
+        i += 1;
+        let eneg = match b.get(i) {
+            Some(b'-') => {
+                i += 1;
+                true
+            }
+            Some(b'+') => {
+                i += 1;
+                false
+            }
+            _ => false,
+        };
+        let es = i;
+        let mut e: i32 = 0;
+        while i < b.len() && b[i].is_ascii_digit() && i - es < 4 {
+            e = e * 10 + (b[i] - b'0') as i32;
+            i += 1;
+        }
+        if i == es {
+            return None;
+        }
+        exp10 += if eneg { -e } else { e };
+    }
+    if i != b.len() || digits > 19 || mant > (1u64 << 53) || exp10.unsigned_abs() > 22 {
+        return None;
+    }
+    let m = mant as f64;
+    let v = if exp10 >= 0 {
+        m * POW10[exp10 as usize]
+    } else {
+        m / POW10[(-exp10) as usize]
+    };
+    Some(if neg { -v } else { v })
 }
 
 /// What a time-series column holds.
@@ -230,7 +305,11 @@ pub fn parse_timeseries_with_warnings(
             }
             count = j + 1;
             if roles[j] != Role::Ignored {
-                let v = parse_cell(cell, file, n, names[j])?;
+                // fast path inline; errors, NaN/Inf and long numbers in parse_cell
+                let v = match fast_f64(cell.trim_ascii()) {
+                    Some(v) => v,
+                    None => parse_cell(cell, file, n, names[j])?,
+                };
                 cols[j].push(v);
             }
         }
@@ -518,7 +597,10 @@ pub fn parse_frf_csv(text: &str, source: &Path) -> Result<Frf> {
         for (j, cell) in l.split(',').enumerate() {
             count = j + 1;
             if j < names.len() {
-                row[j] = parse_cell(cell, file, n, names[j])?;
+                row[j] = match fast_f64(cell.trim_ascii()) {
+                    Some(v) => v,
+                    None => parse_cell(cell, file, n, names[j])?,
+                };
             }
         }
         if count != names.len() {
@@ -689,6 +771,57 @@ mod tests {
         assert_eq!(c("-3j"), Complex64::new(0.0, -3.0));
         assert_eq!(c("2.5"), Complex64::new(2.5, 0.0));
         assert!(parse_python_complex("(1+zj)").is_none());
+    }
+
+    #[test]
+    fn fast_path_agrees_with_std() {
+        let cases = [
+            "0",
+            "-0",
+            "1",
+            "+2.5",
+            "0.0000390625",
+            "-0.0166735103",
+            "36.53798",
+            "1e5",
+            "1.5E-3",
+            "123456789012345678",
+            "9007199254740993",
+            "1e22",
+            "1e23",
+            "4.9e-324",
+            ".5",
+            "5.",
+            "-.25e+2",
+            "0.1",
+            "3.141592653589793",
+            "1e-22",
+            "2.2250738585072014e-308",
+        ];
+        for c in cases {
+            let want: f64 = c.parse().unwrap();
+            let got = fast_f64(c).map_or_else(|| c.parse::<f64>().unwrap(), |v| v);
+            assert_eq!(got.to_bits(), want.to_bits(), "{c}");
+        }
+        for bad in ["", "-", ".", "e5", "1e", "1x", "--1", "nan", "inf", "1e+"] {
+            assert!(fast_f64(bad).is_none(), "{bad}");
+        }
+        // a pseudo-random sweep of decimal strings
+        let mut x: u64 = 0x2545_f491_4f6c_dd1d;
+        for _ in 0..20000 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            let digits = x % 10_000_000_000_000;
+            let frac = (x >> 50) % 16;
+            let s = digits.to_string();
+            let cut = s.len().saturating_sub(frac as usize);
+            let t = format!("{}.{}e{}", &s[..cut], &s[cut..], (x >> 40) % 40);
+            let t = t.replace("e", if x & 1 == 0 { "e-" } else { "e" });
+            let want: f64 = t.parse().unwrap();
+            let got = fast_f64(&t).map_or(want, |v| v);
+            assert_eq!(got.to_bits(), want.to_bits(), "{t}");
+        }
     }
 
     #[test]
