@@ -800,7 +800,7 @@ mod tests {
         ];
         for c in cases {
             let want: f64 = c.parse().unwrap();
-            let got = fast_f64(c).map_or_else(|| c.parse::<f64>().unwrap(), |v| v);
+            let got = fast_f64(c).unwrap_or(want);
             assert_eq!(got.to_bits(), want.to_bits(), "{c}");
         }
         for bad in ["", "-", ".", "e5", "1e", "1x", "--1", "nan", "inf", "1e+"] {
@@ -819,7 +819,7 @@ mod tests {
             let t = format!("{}.{}e{}", &s[..cut], &s[cut..], (x >> 40) % 40);
             let t = t.replace("e", if x & 1 == 0 { "e-" } else { "e" });
             let want: f64 = t.parse().unwrap();
-            let got = fast_f64(&t).map_or(want, |v| v);
+            let got = fast_f64(&t).unwrap_or(want);
             assert_eq!(got.to_bits(), want.to_bits(), "{t}");
         }
     }
