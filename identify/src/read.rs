@@ -803,6 +803,9 @@ mod tests {
             let got = fast_f64(c).unwrap_or(want);
             assert_eq!(got.to_bits(), want.to_bits(), "{c}");
         }
+        for hot in ["-0.0166735103", "0.0000390625", "36.53798", "1e-5"] {
+            assert!(fast_f64(hot).is_some(), "{hot} should take the fast path");
+        }
         for bad in ["", "-", ".", "e5", "1e", "1x", "--1", "nan", "inf", "1e+"] {
             assert!(fast_f64(bad).is_none(), "{bad}");
         }

@@ -214,6 +214,29 @@ pub fn estimate_frf(records: &[TimeSeries], opts: &FrfOptions) -> Result<FrfEsti
                 1.0 / dt
             )));
         }
+        let n = r.len();
+        for (what, col) in r
+            .force
+            .iter()
+            .map(|c| ("force", c))
+            .chain(r.response.iter().map(|c| ("response", c)))
+        {
+            if let Some(v) = col {
+                if v.len() != n {
+                    return Err(Error::BadInput(format!(
+                        "{}: a {what} column has {} samples, another {n}; all columns of a record must have the same length",
+                        r.source,
+                        v.len()
+                    )));
+                }
+                if let Some(i) = v.iter().position(|x| !x.is_finite()) {
+                    return Err(Error::BadInput(format!(
+                        "{}: {what} sample {i} is not finite; remove NaN/Inf from the record",
+                        r.source
+                    )));
+                }
+            }
+        }
         if r.response_axes().is_empty() {
             return Err(Error::BadInput(format!(
                 "{} has no response column; an FRF needs ax/ay/az or dx/dy/dz",

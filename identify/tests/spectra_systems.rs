@@ -288,3 +288,60 @@ fn exponential_window_estimate_equals_shifted_receptance() {
     let raw = estimate_frf(&records, &opts).unwrap();
     assert!(raw.exp_window_sigma.is_none());
 }
+
+#[test]
+fn periodic_chirp_periods_are_averaged() {
+    // Periodic chirp: 8 periods of 4096 samples; the first period is the transient and is
+    // left out; the others are steady state, so the rectangular-window DFT is exact.
+    let fs = 16384.0;
+    let dt = 1.0 / fs;
+    let sys = [Sdof::new(400.0, 0.03, 1e7)];
+    let p = 4096;
+    let period: Vec<f64> = (0..p)
+        .map(|i| {
+            let t = i as f64 / p as f64;
+            // sweep over lines 4 .. 400 of the period (16 Hz .. 1.6 kHz)
+            let ph = 2.0 * std::f64::consts::PI * (4.0 * t + 0.5 * 396.0 * t * t) * 1.0;
+            50.0 * ph.sin()
+        })
+        .collect();
+    let f: Vec<f64> = (0..8 * p).map(|i| period[i % p]).collect();
+    let (d, _) = simulate(&sys, &f, dt);
+    let mut noise = Noise::new(1);
+    let mut d = d[p..].to_vec();
+    add_noise(&mut d, 1e-3, &mut noise);
+    let opts = FrfOptions {
+        excitation: Excitation::Chirp,
+        nfft: Some(p),
+        ..FrfOptions::default()
+    };
+    let est = estimate_frf(
+        &[record(dt, f[p..].to_vec(), d, ResponseKind::Displacement)],
+        &opts,
+    )
+    .unwrap();
+    assert_eq!(est.hits_used, 7);
+    assert!((est.df_hz - 4.0).abs() < 1e-12);
+    let (w, r, frac) = errors(&est, 30.0, 1500.0, 0.99, |f| {
+        discrete_receptance(&sys, f, dt)
+    });
+    println!("periodic chirp: max {w:.2e} rms {r:.2e} coherent {frac:.3}");
+    assert!(frac > 0.99 && w < 0.01, "{w} {frac}");
+}
+
+#[test]
+fn negative_going_hits_are_found() {
+    let (f, a, dt, sys) = impact_test(21, 4, |_, _, _| {});
+    let f: Vec<f64> = f.iter().map(|v| -v).collect();
+    let a: Vec<f64> = a.iter().map(|v| -v).collect();
+    let est = estimate_frf(
+        &[record(dt, f, a, ResponseKind::Acceleration)],
+        &FrfOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(est.hits_used, 4);
+    let (_, r, _) = errors(&est, 50.0, 1500.0, 0.98, |f| {
+        discrete_receptance(&sys, f, dt)
+    });
+    assert!(r < 0.02, "{r}");
+}
