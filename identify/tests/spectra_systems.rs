@@ -345,3 +345,65 @@ fn negative_going_hits_are_found() {
     });
     assert!(r < 0.02, "{r}");
 }
+
+#[test]
+fn hits_along_x_and_y_give_four_channels() {
+    use identify::axis::{Axis, Channel};
+    let fs = 32768.0;
+    let dt = 1.0 / fs;
+    // H[out][in]: symmetric coupling through a shared 500 Hz mode
+    let direct = [Sdof::new(300.0, 0.02, 2e7), Sdof::new(700.0, 0.02, 3e7)];
+    let shared_mode = Sdof::new(500.0, 0.02, 8e7);
+    let sys = |o: usize, i: usize| -> Vec<Sdof> {
+        if o == i {
+            vec![direct[o], shared_mode]
+        } else {
+            vec![shared_mode]
+        }
+    };
+    let n = (1.2 * fs) as usize;
+    let mut noise = Noise::new(77);
+    let mut records = Vec::new();
+    for input in 0..2 {
+        let times: Vec<f64> = (0..4).map(|h| 0.01 + 0.3 * h as f64).collect();
+        let amps: Vec<f64> = (0..4).map(|_| noise.uniform(50.0, 100.0)).collect();
+        let f = pulses(n, dt, &times, &amps, 3e-4);
+        let mut ts = identify::timeseries::TimeSeries {
+            source: format!("hits along {}", ["x", "y"][input]),
+            dt,
+            response_kind: Some(ResponseKind::Displacement),
+            ..Default::default()
+        };
+        for out in 0..2 {
+            let (mut d, _) = simulate(&sys(out, input), &f, dt);
+            add_noise(&mut d, 1e-3, &mut noise);
+            ts.response[out] = Some(d);
+        }
+        // a little crosstalk on the other force axis (below the 30 % input threshold)
+        ts.force[1 - input] = Some(f.iter().map(|v| 0.05 * v + 0.01 * noise.gauss()).collect());
+        ts.force[input] = Some(f);
+        records.push(ts);
+    }
+    let est = estimate_frf(&records, &FrfOptions::default()).unwrap();
+    assert_eq!(est.hits_used, 8);
+    let names: Vec<String> = est.frf.channels.iter().map(|c| c.channel.name()).collect();
+    assert_eq!(names, ["xx", "yx", "xy", "yy"]);
+    for o in 0..2 {
+        for i in 0..2 {
+            let ch = Channel::new(Axis::ALL[o], Axis::ALL[i]);
+            let one = FrfEstimate {
+                frf: identify::frf::Frf {
+                    freqs_hz: est.frf.freqs_hz.clone(),
+                    channels: vec![est.frf.channel(ch).unwrap().clone()],
+                },
+                ..est.clone()
+            };
+            let modes = sys(o, i);
+            let (w, r, _) = errors(&one, 100.0, 1500.0, 0.98, |f| {
+                discrete_receptance(&modes, f, dt)
+            });
+            println!("{ch}: rms {r:.4} max {w:.4}");
+            assert!(r < 0.02, "{ch}: {r}");
+        }
+    }
+}
