@@ -402,7 +402,10 @@ fn comment_text(line: &str) -> String {
 }
 
 /// Formats a record as time-series CSV text (shortest round-trip number formatting).
-pub fn format_timeseries(ts: &TimeSeries) -> String {
+///
+/// Fails when columns have different lengths or hold NaN/Inf (the file would not read
+/// back).
+pub fn format_timeseries(ts: &TimeSeries) -> Result<String> {
     let mut cols: Vec<(String, &[f64])> = Vec::new();
     for a in Axis::ALL {
         if let Some(v) = ts.force(a) {
@@ -424,6 +427,27 @@ pub fn format_timeseries(ts: &TimeSeries) -> String {
         }
     }
     let n = ts.len();
+    for (name, v) in &cols {
+        if v.len() != n {
+            return Err(Error::BadInput(format!(
+                "cannot write {}: column {name} has {} samples, others {n}",
+                ts.source,
+                v.len()
+            )));
+        }
+        if let Some(i) = v.iter().position(|x| !x.is_finite()) {
+            return Err(Error::Numerical(format!(
+                "cannot write {}: column {name} sample {i} is not finite",
+                ts.source
+            )));
+        }
+    }
+    if !(ts.dt.is_finite() && ts.dt > 0.0 && ts.t0.is_finite()) {
+        return Err(Error::BadInput(format!(
+            "cannot write {}: invalid time axis (t0 {}, dt {})",
+            ts.source, ts.t0, ts.dt
+        )));
+    }
     let mut out = String::with_capacity(n * (cols.len() + 1) * 20 + 64);
     for c in &ts.comments {
         out.push_str("# ");
@@ -439,20 +463,50 @@ pub fn format_timeseries(ts: &TimeSeries) -> String {
     for i in 0..n {
         let _ = write!(out, "{}", ts.t0 + i as f64 * ts.dt);
         for (_, v) in &cols {
-            let _ = write!(out, ",{}", v.get(i).copied().unwrap_or(0.0));
+            let _ = write!(out, ",{}", v[i]);
         }
         out.push('\n');
     }
-    out
+    Ok(out)
 }
 
 /// Writes a record as time-series CSV (atomically; numbers round-trip exactly).
 pub fn write_timeseries(path: &Path, ts: &TimeSeries) -> Result<()> {
-    write_atomic(path, format_timeseries(ts).as_bytes())
+    write_atomic(path, format_timeseries(ts)?.as_bytes())
 }
 
 /// Formats an FRF as FRF CSV text (SPEC section 3).
-pub fn format_frf_csv(frf: &Frf) -> String {
+///
+/// Fails when a channel's length differs from the grid, a value is NaN/Inf or the
+/// frequencies are not strictly increasing (the file would not read back).
+pub fn format_frf_csv(frf: &Frf) -> Result<String> {
+    let n = frf.freqs_hz.len();
+    if frf.freqs_hz.windows(2).any(|w| w[1] <= w[0])
+        || frf.freqs_hz.iter().any(|f| !f.is_finite() || *f < 0.0)
+    {
+        return Err(Error::BadInput(
+            "cannot write FRF: frequencies must be finite, non-negative and strictly increasing"
+                .into(),
+        ));
+    }
+    for c in &frf.channels {
+        let bad_len = c.h.len() != n || c.coherence.as_ref().is_some_and(|g| g.len() != n);
+        if bad_len {
+            return Err(Error::BadInput(format!(
+                "cannot write FRF: channel {} does not have one value per frequency ({n})",
+                c.channel
+            )));
+        }
+        if let Some(i) =
+            c.h.iter()
+                .position(|z| !(z.re.is_finite() && z.im.is_finite()))
+        {
+            return Err(Error::Numerical(format!(
+                "cannot write FRF: channel {} is not finite at {} Hz",
+                c.channel, frf.freqs_hz[i]
+            )));
+        }
+    }
     let mut out = String::from("f_hz");
     for c in &frf.channels {
         let n = c.channel.name();
@@ -465,20 +519,26 @@ pub fn format_frf_csv(frf: &Frf) -> String {
     for (i, f) in frf.freqs_hz.iter().enumerate() {
         let _ = write!(out, "{f}");
         for c in &frf.channels {
-            let h = c.h.get(i).copied().unwrap_or_default();
+            let h = c.h[i];
             let _ = write!(out, ",{},{}", h.re, h.im);
             if let Some(g) = &c.coherence {
-                let _ = write!(out, ",{}", g.get(i).copied().unwrap_or(0.0).clamp(0.0, 1.0));
+                // NaN coherence (undefined) is written as 0
+                let v = if g[i].is_nan() {
+                    0.0
+                } else {
+                    g[i].clamp(0.0, 1.0)
+                };
+                let _ = write!(out, ",{v}");
             }
         }
         out.push('\n');
     }
-    out
+    Ok(out)
 }
 
 /// Writes an FRF CSV (SPEC section 3) atomically.
 pub fn write_frf_csv(path: &Path, frf: &Frf) -> Result<()> {
-    write_atomic(path, format_frf_csv(frf).as_bytes())
+    write_atomic(path, format_frf_csv(frf)?.as_bytes())
 }
 
 /// Reads an FRF CSV (SPEC section 3).

@@ -105,9 +105,9 @@ pub enum Excitation {
 pub struct ImpactOptions {
     /// Hit threshold relative to the largest force peak of the record (default 0.2).
     pub trigger_fraction: f64,
-    /// Minimum time between two hits [s] (default 0.05); closer pulses are double hits.
+    /// Minimum time between two hits (s, default 0.05); closer pulses are double hits.
     pub min_spacing_s: f64,
-    /// Pre-trigger kept before each hit [s] (default 1 ms, at least 4 samples).
+    /// Pre-trigger kept before each hit (s, default 1 ms, at least 4 samples).
     pub pretrigger_s: f64,
     /// A later pulse above this fraction of the hit's peak is a double hit (default 0.1).
     pub double_hit_fraction: f64,
@@ -141,7 +141,7 @@ pub struct FrfOptions {
     /// DFT length: Welch segment, chirp period, or impact record length. `None` = rule
     /// of the module docs.
     pub nfft: Option<usize>,
-    /// Highest frequency kept [Hz]; `None` = up to (excluding) Nyquist.
+    /// Highest frequency kept (Hz); `None` = up to (excluding) Nyquist.
     pub fmax_hz: Option<f64>,
     /// Welch overlap fraction (default 0.5).
     pub overlap: f64,
@@ -181,7 +181,7 @@ pub struct FrfEstimate {
     pub exp_window_sigma: Option<f64>,
     /// Human description of what was done.
     pub method: String,
-    /// Frequency resolution [Hz].
+    /// Frequency resolution (Hz).
     pub df_hz: f64,
 }
 
@@ -236,6 +236,12 @@ pub fn estimate_frf(records: &[TimeSeries], opts: &FrfOptions) -> Result<FrfEsti
                     )));
                 }
             }
+        }
+        if r.response_kind.is_none() && !r.response_axes().is_empty() {
+            return Err(Error::BadInput(format!(
+                "{}: response columns without a kind; set response_kind (acceleration or displacement)",
+                r.source
+            )));
         }
         if r.response_axes().is_empty() {
             return Err(Error::BadInput(format!(

@@ -250,6 +250,12 @@ fn timeseries_round_trip() {
     assert_eq!(back.t0, ts.t0);
     assert!((back.dt - ts.dt).abs() < 1e-12 * ts.dt);
     assert_eq!(back.source, p.display().to_string());
+    let mut bad = ts.clone();
+    bad.force[0].as_mut().unwrap()[5] = f64::INFINITY;
+    assert!(write_timeseries(&p, &bad).is_err());
+    let mut bad = ts.clone();
+    bad.position[0].as_mut().unwrap().pop();
+    assert!(write_timeseries(&p, &bad).is_err());
 }
 
 fn sample_frf() -> Frf {
@@ -287,6 +293,17 @@ fn frf_round_trip() {
         text.starts_with("f_hz,xx_re,xx_im,xx_coh,yx_re,yx_im\n"),
         "{text}"
     );
+    assert_eq!(read_frf_csv(&p).unwrap(), frf);
+    // what would not read back is refused, and the old file stays
+    let mut bad = frf.clone();
+    bad.channels[0].h[3].re = f64::NAN;
+    assert!(write_frf_csv(&p, &bad).is_err());
+    let mut bad = frf.clone();
+    bad.channels[1].h.pop();
+    assert!(write_frf_csv(&p, &bad).is_err());
+    let mut bad = frf.clone();
+    bad.freqs_hz[2] = bad.freqs_hz[1];
+    assert!(write_frf_csv(&p, &bad).is_err());
     assert_eq!(read_frf_csv(&p).unwrap(), frf);
 }
 
