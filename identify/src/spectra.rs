@@ -25,7 +25,8 @@
 //!     [`ImpactOptions::min_spacing_s`] apart. Each hit gives one record from a short
 //!     pre-trigger to the next hit's pre-trigger (or the end). The force gets a force
 //!     window (pulse kept, cosine taper of one pulse width after it, zero after).
-//!     When the response has not decayed to 1 % of its peak by the end of the record,
+//!     When the response has not decayed to 1 % of its peak (or into its pre-trigger
+//!     noise) by the end of the record,
 //!     both signals get the same exponential window `e^{-σ t}`, with σ chosen so that
 //!     the response ends near 1 % of its peak; the estimate then equals `H(s + σ)`
 //!     (every pole moved left by σ: add `σ / ωₙ` to a mode's damping ratio to undo it),
@@ -955,6 +956,8 @@ mod impact {
 
         // Settling before the hit, decay at the end.
         let mut sigma_auto = 0.0f64;
+        let mut unsettled: std::collections::BTreeMap<(usize, Axis), (usize, f64)> =
+            Default::default();
         for h in &hits {
             let rec = &records[h.record];
             let end = (h.start + n).min(h.end);
@@ -974,23 +977,37 @@ mod impact {
                 let pre = &y[..h.pulse_start - h.start];
                 let pre_max = pre.iter().fold(0.0f64, |m, v| m.max(v.abs()));
                 if pre_max > 0.05 * peak {
-                    ctx.warnings.push(format!(
-                        "{} hit at t = {:.4} s: response {a} still moving before the hit ({:.0} % of its peak); leave more time between hits",
-                        rec.source,
-                        rec.t0 + h.pulse_start as f64 * ctx.dt,
-                        100.0 * pre_max / peak
-                    ));
+                    let e = unsettled.entry((h.record, a)).or_insert((0, 0.0));
+                    e.0 += 1;
+                    e.1 = f64::max(e.1, 100.0 * pre_max / peak);
                 }
                 let tail = (y.len() / 20).max(8).min(y.len());
                 let t = &y[y.len() - tail..];
                 let amp = (t.iter().map(|v| v * v).sum::<f64>() / tail as f64).sqrt()
                     * std::f64::consts::SQRT_2;
+                // A response that has sunk into its noise floor (the pre-trigger level)
+                // has decayed: no window for it, whatever its noise-to-peak ratio.
+                let noise = if pre.len() >= 4 {
+                    (pre.iter().map(|v| v * v).sum::<f64>() / pre.len() as f64).sqrt()
+                        * std::f64::consts::SQRT_2
+                } else {
+                    0.0
+                };
+                if amp <= 2.0 * noise {
+                    continue;
+                }
                 let ratio = amp / peak;
                 let dur = (h.start + n - h.pulse_start) as f64 * ctx.dt;
                 if ratio > io.end_level && dur > 0.0 {
                     sigma_auto = sigma_auto.max((ratio / io.end_level).ln() / dur);
                 }
             }
+        }
+        for ((r, a), (count, pct)) in unsettled {
+            ctx.warnings.push(format!(
+                "{}: response {a} is not at rest before {count} of its hits (up to {pct:.0} % of the response peak): leave more time between hits, or the channel is mostly noise",
+                records[r].source
+            ));
         }
         let sigma = io.exp_window_sigma.unwrap_or(sigma_auto).max(0.0);
 

@@ -149,7 +149,7 @@ fn impact_test(
 fn impacts_recover_two_dof() {
     let (f, a, dt, sys) = impact_test(7, 5, |_, _, _| {});
     let est = estimate_frf(
-        &[record(dt, f, a, ResponseKind::Acceleration)],
+        &[record(dt, f.clone(), a.clone(), ResponseKind::Acceleration)],
         &FrfOptions::default(),
     )
     .unwrap();
@@ -167,6 +167,13 @@ fn impacts_recover_two_dof() {
     println!("impact: df {:.3} Hz, {:.0} % lines coherent; error discrete rms {r_d:.4} max {w_d:.4}, analytic rms {r_a:.4} max {w_a:.4}", est.df_hz, frac * 100.0);
     assert!(frac > 0.9, "{frac}");
     assert!(r_d < 0.02 && w_d < 0.1, "{r_d} {w_d}");
+    // an extra response axis that only carries noise does not call for an exponential
+    // window (it is at its noise floor from the start)
+    let mut rec = record(dt, f, a, ResponseKind::Acceleration);
+    rec.response[2] = Some(Noise::new(99).vec(rec.len(), 0.01));
+    let est2 = estimate_frf(&[rec], &FrfOptions::default()).unwrap();
+    assert!(est2.exp_window_sigma.is_none());
+    assert_eq!(est2.frf.channels.len(), 2);
     assert!(r_a < 0.02 && w_a < 0.1, "{r_a} {w_a}");
 }
 
