@@ -286,3 +286,43 @@ fn bad_inputs_are_clear_errors() {
     let e = estimate_frf(&[a, b], &FrfOptions::default()).unwrap_err();
     assert!(e.to_string().contains("sample rate"), "{e}");
 }
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(200))]
+    /// Whatever the data and options: a clean error or finite output, never a panic;
+    /// the grid is strictly increasing and excludes 0 Hz.
+    #[test]
+    fn never_panics(
+        len in 16usize..400,
+        seed in 0u64..1000,
+        exc in 0usize..4,
+        est in 0usize..3,
+        nfft in proptest::option::of(1usize..500),
+        spike in proptest::bool::ANY,
+        acc in proptest::bool::ANY,
+    ) {
+        let mut noise = Noise::new(seed);
+        let mut f = noise.vec(len, 1.0);
+        if spike {
+            for v in f.iter_mut() { *v *= 0.01; }
+            f[len / 3] = 50.0;
+        }
+        let y = noise.vec(len, 1e-6);
+        let kind = if acc { ResponseKind::Acceleration } else { ResponseKind::Displacement };
+        let opts = FrfOptions {
+            excitation: [Excitation::Auto, Excitation::Impact, Excitation::Continuous, Excitation::Chirp][exc],
+            estimator: [Estimator::H1, Estimator::H2, Estimator::Hv][est],
+            nfft,
+            ..FrfOptions::default()
+        };
+        if let Ok(out) = estimate_frf(&[record(1e-3, f, y, kind)], &opts) {
+            proptest::prop_assert!(out.frf.freqs_hz.first().is_some_and(|&f0| f0 > 0.0));
+            proptest::prop_assert!(out.frf.freqs_hz.windows(2).all(|w| w[1] > w[0]));
+            for c in &out.frf.channels {
+                proptest::prop_assert_eq!(c.h.len(), out.frf.freqs_hz.len());
+                proptest::prop_assert!(c.h.iter().all(|z| z.re.is_finite() && z.im.is_finite()));
+                proptest::prop_assert!(c.coherence.as_ref().unwrap().iter().all(|g| (0.0..=1.0).contains(g)));
+            }
+        }
+    }
+}

@@ -414,3 +414,30 @@ fn hits_along_x_and_y_give_four_channels() {
         }
     }
 }
+
+#[test]
+fn impact_options_at_their_limits_do_not_panic() {
+    let (f, a, dt, _) = impact_test(5, 3, |_, _, _| {});
+    let rec = record(dt, f, a, ResponseKind::Acceleration);
+    for nfft in [16, 17, 64, 1 << 16] {
+        let opts = FrfOptions {
+            excitation: Excitation::Impact,
+            nfft: Some(nfft),
+            ..FrfOptions::default()
+        };
+        let est = estimate_frf(std::slice::from_ref(&rec), &opts).unwrap();
+        assert_eq!(est.hits_used, 3, "nfft {nfft}");
+        assert!(est.frf.channels[0]
+            .h
+            .iter()
+            .all(|z| z.re.is_finite() && z.im.is_finite()));
+    }
+    // continuous data forced through the impact path: an error or an estimate, no panic
+    let noise = Noise::new(3).vec(5000, 1.0);
+    let rec = record(dt, noise.clone(), noise, ResponseKind::Displacement);
+    let opts = FrfOptions {
+        excitation: Excitation::Impact,
+        ..FrfOptions::default()
+    };
+    let _ = estimate_frf(&[rec], &opts);
+}

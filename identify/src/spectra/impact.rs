@@ -113,7 +113,7 @@ pub(super) fn estimate(
             if peak <= 0.0 {
                 continue;
             }
-            let pre = &y[..h.pulse_start - h.start];
+            let pre = &y[..(h.pulse_start - h.start).min(y.len())];
             let pre_max = pre.iter().fold(0.0f64, |m, v| m.max(v.abs()));
             if pre_max > 0.05 * peak {
                 let e = unsettled.entry((h.record, a)).or_insert((0, 0.0));
@@ -136,7 +136,7 @@ pub(super) fn estimate(
                 continue;
             }
             let ratio = amp / peak;
-            let dur = (h.start + n - h.pulse_start) as f64 * ctx.dt;
+            let dur = (h.start + n).saturating_sub(h.pulse_start) as f64 * ctx.dt;
             if ratio > io.end_level && dur > 0.0 {
                 sigma_auto = sigma_auto.max((ratio / io.end_level).ln() / dur);
             }
