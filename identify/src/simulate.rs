@@ -62,11 +62,19 @@ impl SectionStep {
         let disc = mu * mu - w * w;
         let (f0, f1) = if disc < 0.0 {
             let q = (-disc).sqrt();
-            let s = if q * h < 1e-8 { h } else { (q * h).sin() / q };
+            let s = if q * h < 1e-8 {
+                h
+            } else {
+                (q * h).sin() / q
+            };
             ((q * h).cos(), s)
         } else {
             let q = disc.sqrt();
-            let s = if q * h < 1e-8 { h } else { (q * h).sinh() / q };
+            let s = if q * h < 1e-8 {
+                h
+            } else {
+                (q * h).sinh() / q
+            };
             ((q * h).cosh(), s)
         };
         let e = (mu * h).exp();
@@ -193,12 +201,8 @@ impl Simulator {
     pub fn step(&mut self, model: &ModalModel, u0: &[f64; 3], u1: &[f64; 3], h: f64) {
         assert_eq!(model.modes.len(), self.n_modes, "mode count changed");
         self.steps.clear();
-        self.steps.extend(
-            model
-                .modes
-                .iter()
-                .map(|m| SectionStep::new(m, h, self.hold)),
-        );
+        self.steps
+            .extend(model.modes.iter().map(|m| SectionStep::new(m, h, self.hold)));
         for (k, st) in self.steps.iter().enumerate() {
             for j in 0..3 {
                 if u0[j] != 0.0 || u1[j] != 0.0 || self.state[k * 3 + j] != [0.0, 0.0] {

@@ -58,9 +58,7 @@ impl TimeSeries {
 
     /// Times of the samples [s].
     pub fn times(&self) -> Vec<f64> {
-        (0..self.len())
-            .map(|i| self.t0 + i as f64 * self.dt)
-            .collect()
+        (0..self.len()).map(|i| self.t0 + i as f64 * self.dt).collect()
     }
 
     /// Force along `a`, if measured.

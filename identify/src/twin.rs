@@ -179,9 +179,7 @@ impl Twin {
                 msg: format!(
                     "not an mtwin twin file (field \"schema\" is {}, expected \"{TWIN_SCHEMA}\"); \
                      create one with `mtwin identify DATA.csv --out TWIN.json`",
-                    schema
-                        .map(|s| format!("\"{s}\""))
-                        .unwrap_or("missing".into())
+                    schema.map(|s| format!("\"{s}\"")).unwrap_or("missing".into())
                 ),
             });
         }
