@@ -182,7 +182,8 @@ pub fn read_timeseries(path: &Path) -> Result<TimeSeries> {
     read_timeseries_with_warnings(path).map(|(ts, _)| ts)
 }
 
-/// Reads a time-series CSV and returns the warnings (e.g. unknown columns ignored).
+/// Reads a time-series CSV and returns the warnings (e.g. unknown columns ignored); the
+/// warnings do not repeat the file name (it is in [`TimeSeries::source`]).
 pub fn read_timeseries_with_warnings(path: &Path) -> Result<(TimeSeries, Vec<String>)> {
     let text = read_text(path)?;
     parse_timeseries_with_warnings(&text, path)
@@ -250,8 +251,7 @@ pub fn parse_timeseries_with_warnings(
                 _ => {}
             },
             Role::Ignored => warnings.push(format!(
-                "{}:{header_line}: unknown column '{name}' ignored (known: t, fx, fy, fz, ax, ay, az, dx, dy, dz, x, y, z)",
-                file.display()
+                "line {header_line}: unknown column '{name}' ignored (known: t, fx, fy, fz, ax, ay, az, dx, dy, dz, x, y, z)"
             )),
             _ => {}
         }
