@@ -184,6 +184,10 @@ pub struct FrfEstimate {
     pub method: String,
     /// Frequency resolution (Hz).
     pub df_hz: f64,
+    /// Band `(lo, hi)` in Hz where the force auto-spectrum is within 20 dB of its peak
+    /// (the contiguous range around the peak; intersection over the input groups): the
+    /// lines outside it are poorly excited. `None` when undefined (no force).
+    pub excitation_band_hz: Option<(f64, f64)>,
 }
 
 /// Force axes whose RMS is at least this fraction of the strongest are inputs.
@@ -447,6 +451,29 @@ impl Accumulator {
         self.averages += 1;
     }
 
+    /// Lines `(lo, hi)` (1-based line numbers k, frequency k·df) of the contiguous range
+    /// around the peak of the force auto-spectrum (trace of Gff) within 20 dB of it.
+    fn force_band(&self) -> Option<(usize, usize)> {
+        let ni = self.inputs.len();
+        let p: Vec<f64> = (0..self.nl)
+            .map(|k| (0..ni).map(|i| self.gff[(k * ni + i) * ni + i].re).sum())
+            .collect();
+        let (kmax, &pmax) = p.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1))?;
+        if pmax <= 0.0 {
+            return None;
+        }
+        let lim = 0.01 * pmax;
+        let mut lo = kmax;
+        while lo > 0 && p[lo - 1] >= lim {
+            lo -= 1;
+        }
+        let mut hi = kmax;
+        while hi + 1 < p.len() && p[hi + 1] >= lim {
+            hi += 1;
+        }
+        Some((lo + 1, hi + 1))
+    }
+
     /// FRF channels (per output, per input) and how many lines were singular.
     fn finish(&self, est: Estimator) -> Result<(Vec<FrfChannel>, usize)> {
         let (ni, no, nl) = (self.inputs.len(), self.outputs.len(), self.nl);
@@ -638,7 +665,11 @@ fn assemble(
     }
     let mut channels: Vec<FrfChannel> = Vec::new();
     let mut used = 0;
+    let mut band = (0.0f64, f64::INFINITY);
     for acc in &accs {
+        if let Some((lo, hi)) = acc.force_band() {
+            band = (band.0.max(lo as f64 * df), band.1.min(hi as f64 * df));
+        }
         if acc.averages == 1 {
             ctx.warnings.push(format!(
                 "excitation along {}: a single average, coherence is 1 by construction and says nothing about noise",
@@ -676,6 +707,15 @@ fn assemble(
         }
     }
     channels.sort_by_key(|c| (c.channel.input, c.channel.output));
+    let excitation_band_hz = (band.1.is_finite() && band.1 >= band.0).then_some(band);
+    if let Some((lo, hi)) = excitation_band_hz {
+        let top = keep as f64 * df;
+        if hi < 0.9 * top {
+            ctx.warnings.push(format!(
+                "the force is more than 20 dB below its peak outside {lo:.1}..{hi:.1} Hz; lines up to {top:.1} Hz outside that band are unreliable (set fmax)"
+            ));
+        }
+    }
     Ok(FrfEstimate {
         frf: Frf {
             freqs_hz: (1..=keep).map(|k| k as f64 * df).collect(),
@@ -687,6 +727,7 @@ fn assemble(
         exp_window_sigma: sigma,
         method,
         df_hz: df,
+        excitation_band_hz,
     })
 }
 

@@ -20,6 +20,9 @@ fn real_impact_test_five_hits_high_coherence_known_resonances() {
     assert!(est.method.contains("impact"));
     assert_eq!(est.hits_used, 5);
     assert!(est.hits_dropped.is_empty());
+    let (lo, hi) = est.excitation_band_hz.unwrap();
+    println!("force within 20 dB of its peak: {lo:.1}..{hi:.1} Hz");
+    assert!(lo < 5.0 && hi > 4500.0, "{lo} {hi}");
     let frf = est.frf.band(200.0, 4500.0);
     let ch = &frf.channels[0];
     let coh = ch.coherence.as_ref().unwrap();

@@ -105,6 +105,14 @@ fn single_chirp_dft_ratio_is_unbiased() {
     };
     let est = estimate_frf(&[record(dt, f, d, ResponseKind::Displacement)], &opts).unwrap();
     assert!(est.method.contains("chirp"), "{}", est.method);
+    // the sweep covers 5..1200 Hz: that is where the force is
+    let (lo, hi) = est.excitation_band_hz.unwrap();
+    assert!(lo < 10.0 && hi > 1100.0 && hi < 1400.0, "{lo} {hi}");
+    assert!(
+        est.warnings.iter().any(|w| w.contains("20 dB")),
+        "{:?}",
+        est.warnings
+    );
     let (e_disc, _, _) = errors(&est, 20.0, 1000.0, 0.0, |f| {
         discrete_receptance(&sys, f, dt)
     });
