@@ -1,0 +1,362 @@
+//! Impact tests: hit detection, double-hit and overload checks, force and exponential
+//! windows, H1 over the hits (see the parent module's docs for the rules).
+
+use super::*;
+
+/// One detected hit, as a record window of the source record.
+#[derive(Debug, Clone)]
+struct Hit {
+    record: usize,
+    /// Record window [start, end) in samples of the source record.
+    start: usize,
+    end: usize,
+    /// First sample of the pulse (force above 2 % of the hit's peak).
+    pulse_start: usize,
+    /// First sample after the pulse.
+    pulse_end: usize,
+    /// Force baseline (median of the source record).
+    base: f64,
+    /// Force sign (+1 or −1) so that the hit is positive.
+    sign: f64,
+    input: Axis,
+}
+
+pub(super) fn estimate(
+    records: &[TimeSeries],
+    infos: &[RecordInfo],
+    ctx: &mut Ctx,
+) -> Result<FrfEstimate> {
+    let io = &ctx.opts.impact;
+    let mut hits: Vec<Hit> = Vec::new();
+    let mut n_detected = 0;
+    for (r, (rec, info)) in records.iter().zip(infos).enumerate() {
+        let found = detect(rec, r, info.strongest, io, ctx.dt);
+        n_detected += found.len();
+        if found.is_empty() {
+            ctx.dropped
+                .push(format!("{}: no hit found in the force", rec.source));
+            continue;
+        }
+        if info.inputs.len() > 1 {
+            for (k, _) in found.iter().enumerate() {
+                ctx.dropped.push(format!(
+                    "{} hit {}: force on several axes ({}); an oblique hit cannot be split into single-axis FRFs",
+                    rec.source,
+                    k + 1,
+                    axes_name(&info.inputs)
+                ));
+            }
+            continue;
+        }
+        for (k, h) in found.into_iter().enumerate() {
+            match check(rec, &h, io) {
+                Ok(()) => hits.push(h),
+                Err(why) => ctx
+                    .dropped
+                    .push(format!("{} hit {}: {why}", rec.source, k + 1)),
+            }
+        }
+    }
+    // Records much shorter than the others (a hit followed too soon by the next).
+    if !hits.is_empty() {
+        let lens: Vec<f64> = hits.iter().map(|h| (h.end - h.start) as f64).collect();
+        let med = median(&lens);
+        let before = hits.len();
+        let mut kept = Vec::with_capacity(before);
+        for h in hits {
+            if ((h.end - h.start) as f64) < 0.5 * med && ctx.opts.nfft.is_none() {
+                ctx.dropped.push(format!(
+                    "{} hit at t = {:.4} s: only {:.4} s until the next hit (others have {:.4} s)",
+                    records[h.record].source,
+                    records[h.record].t0 + h.pulse_start as f64 * ctx.dt,
+                    (h.end - h.start) as f64 * ctx.dt,
+                    med * ctx.dt
+                ));
+            } else {
+                kept.push(h);
+            }
+        }
+        hits = kept;
+    }
+    if hits.is_empty() {
+        return Err(Error::BadInput(format!(
+            "no usable hit: {n_detected} detected, all rejected ({}); repeat the test with single, clean hits below the sensors' range",
+            ctx.dropped.join("; ")
+        )));
+    }
+    let n = ctx
+        .opts
+        .nfft
+        .unwrap_or_else(|| hits.iter().map(|h| h.end - h.start).min().unwrap_or(0));
+    if n < 16 {
+        return Err(Error::BadInput(format!(
+            "hit records are only {n} samples long; leave more time between hits"
+        )));
+    }
+
+    // Settling before the hit, decay at the end.
+    let mut sigma_auto = 0.0f64;
+    let mut unsettled: std::collections::BTreeMap<(usize, Axis), (usize, f64)> = Default::default();
+    for h in &hits {
+        let rec = &records[h.record];
+        let end = (h.start + n).min(h.end);
+        for a in rec.response_axes() {
+            let y = &rec.response(a).unwrap_or(&[])[h.start..end];
+            // Peak of the free vibration after the pulse (the impulsive part of an
+            // acceleration during the pulse is not what has to decay).
+            let after = (h.pulse_end + (h.pulse_end - h.pulse_start)).saturating_sub(h.start);
+            let peak = y
+                .get(after.min(y.len())..)
+                .unwrap_or(&[])
+                .iter()
+                .fold(0.0f64, |m, v| m.max(v.abs()));
+            if peak <= 0.0 {
+                continue;
+            }
+            let pre = &y[..(h.pulse_start - h.start).min(y.len())];
+            let pre_max = pre.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            if pre_max > 0.05 * peak {
+                let e = unsettled.entry((h.record, a)).or_insert((0, 0.0));
+                e.0 += 1;
+                e.1 = f64::max(e.1, 100.0 * pre_max / peak);
+            }
+            let tail = (y.len() / 20).max(8).min(y.len());
+            let t = &y[y.len() - tail..];
+            let amp = (t.iter().map(|v| v * v).sum::<f64>() / tail as f64).sqrt()
+                * std::f64::consts::SQRT_2;
+            // A response that has sunk into its noise floor (the pre-trigger level)
+            // has decayed: no window for it, whatever its noise-to-peak ratio.
+            let noise = if pre.len() >= 4 {
+                (pre.iter().map(|v| v * v).sum::<f64>() / pre.len() as f64).sqrt()
+                    * std::f64::consts::SQRT_2
+            } else {
+                0.0
+            };
+            if amp <= 2.0 * noise {
+                continue;
+            }
+            let ratio = amp / peak;
+            let dur = (h.start + n).saturating_sub(h.pulse_start) as f64 * ctx.dt;
+            if ratio > io.end_level && dur > 0.0 {
+                sigma_auto = sigma_auto.max((ratio / io.end_level).ln() / dur);
+            }
+        }
+    }
+    for ((r, a), (count, pct)) in unsettled {
+        ctx.warnings.push(format!(
+            "{}: response {a} is not at rest before {count} of its hits (up to {pct:.0} % of the response peak): leave more time between hits, or the channel is mostly noise",
+            records[r].source
+        ));
+    }
+    let sigma = io.exp_window_sigma.unwrap_or(sigma_auto).max(0.0);
+
+    let mut dft = RealDft::new(&mut ctx.planner, n);
+    let nl = n_lines(n);
+    let mut accs = Vec::new();
+    let mut fwin = vec![0.0; n];
+    let mut ewin = vec![0.0; n];
+    for input in Axis::ALL {
+        let group: Vec<&Hit> = hits.iter().filter(|h| h.input == input).collect();
+        if group.is_empty() {
+            continue;
+        }
+        let outputs: Vec<Axis> = Axis::ALL
+            .into_iter()
+            .filter(|a| group.iter().all(|h| infos[h.record].outputs.contains(a)))
+            .collect();
+        let mut acc = Accumulator::new(vec![input], outputs.clone(), nl);
+        let mut fs = vec![vec![Complex64::default(); nl]; 1];
+        let mut ys = vec![vec![Complex64::default(); nl]; outputs.len()];
+        for h in group {
+            let rec = &records[h.record];
+            let conv = to_displacement(rec.response_kind, n, ctx.dt, sigma);
+            force_window(&mut fwin, h);
+            let t_hit = h.pulse_start - h.start;
+            for (i, e) in ewin.iter_mut().enumerate() {
+                *e = (-sigma * (i as f64 - t_hit as f64) * ctx.dt).exp();
+            }
+            let avail = (rec.len() - h.start).min(n).min(h.end - h.start);
+            let f = &rec.force(input).unwrap_or(&[])[h.start..h.start + avail];
+            for (i, b) in dft.buf.iter_mut().enumerate() {
+                *b = if i < avail {
+                    (f[i] - h.base) * fwin[i] * ewin[i]
+                } else {
+                    0.0
+                };
+            }
+            dft.run_into(&mut fs[0], None)?;
+            for (o, &a) in outputs.iter().enumerate() {
+                let y = &rec.response(a).unwrap_or(&[])[h.start..h.start + avail];
+                for (i, b) in dft.buf.iter_mut().enumerate() {
+                    *b = if i < avail { y[i] * ewin[i] } else { 0.0 };
+                }
+                dft.run_into(&mut ys[o], Some(&conv))?;
+            }
+            acc.add(&fs, &ys);
+        }
+        accs.push(acc);
+    }
+    let df = 1.0 / (n as f64 * ctx.dt);
+    let used: usize = accs.iter().map(|a| a.averages).sum();
+    let method = format!(
+        "{:?}, impact: {used} hits averaged, record {n} samples, force window{}, df {df:.4} Hz",
+        ctx.opts.estimator,
+        if sigma > 0.0 {
+            format!(" + exponential window sigma {sigma:.3} 1/s (estimate = H(s + sigma))")
+        } else {
+            String::new()
+        }
+    );
+    assemble(accs, n, ctx, method, (sigma > 0.0).then_some(sigma))
+}
+
+/// Finds the hits of one record.
+fn detect(rec: &TimeSeries, r: usize, axis: Axis, io: &ImpactOptions, dt: f64) -> Vec<Hit> {
+    let f = rec.force(axis).unwrap_or(&[]);
+    let n = f.len();
+    let base = median(f);
+    let (imax, _) = f.iter().enumerate().fold((0, 0.0f64), |(bi, bv), (i, v)| {
+        if (v - base).abs() > bv {
+            (i, (v - base).abs())
+        } else {
+            (bi, bv)
+        }
+    });
+    let sign = if f.get(imax).copied().unwrap_or(0.0) >= base {
+        1.0
+    } else {
+        -1.0
+    };
+    let g = |i: usize| sign * (f[i] - base);
+    let peak = if n > 0 { g(imax) } else { 0.0 };
+    if peak <= 0.0 {
+        return Vec::new();
+    }
+    let thr = io.trigger_fraction * peak;
+    let spacing = ((io.min_spacing_s / dt).round() as usize).max(1);
+    let pre = ((io.pretrigger_s / dt).round() as usize).max(4);
+    let mut crossings: Vec<usize> = Vec::new();
+    for i in 0..n {
+        if g(i) >= thr && (i == 0 || g(i - 1) < thr) {
+            match crossings.last() {
+                Some(&last) if i - last < spacing => {}
+                _ => crossings.push(i),
+            }
+        }
+    }
+    let mut hits = Vec::with_capacity(crossings.len());
+    for (k, &c) in crossings.iter().enumerate() {
+        let start = c.saturating_sub(pre);
+        let end = crossings.get(k + 1).map_or(n, |&nx| nx.saturating_sub(pre));
+        // Peak of this pulse: within the region above the threshold.
+        let mut p = c;
+        let mut i = c;
+        while i < end && g(i) >= thr {
+            if g(i) > g(p) {
+                p = i;
+            }
+            i += 1;
+        }
+        let low = 0.02 * g(p);
+        let mut ps = p;
+        while ps > start && g(ps - 1) >= low {
+            ps -= 1;
+        }
+        let mut pe = p;
+        while pe < end && g(pe) >= low {
+            pe += 1;
+        }
+        hits.push(Hit {
+            record: r,
+            start,
+            end,
+            pulse_start: ps,
+            pulse_end: pe,
+            base,
+            sign,
+            input: axis,
+        });
+    }
+    hits
+}
+
+/// Double hit and overload checks; `Err` says why the hit is dropped.
+fn check(rec: &TimeSeries, h: &Hit, io: &ImpactOptions) -> std::result::Result<(), String> {
+    let f = rec.force(h.input).unwrap_or(&[]);
+    let g = |i: usize| h.sign * (f[i] - h.base);
+    let (p, peak) = (h.pulse_start..h.pulse_end.max(h.pulse_start + 1).min(h.end))
+        .map(|i| (i, g(i)))
+        .fold(
+            (h.pulse_start, f64::MIN),
+            |a, b| if b.1 > a.1 { b } else { a },
+        );
+    if let Some(i) = (h.pulse_end..h.end).find(|&i| g(i) > io.double_hit_fraction * peak) {
+        let second = (i..h.end)
+            .take_while(|&j| g(j) > 0.02 * peak)
+            .map(g)
+            .fold(0.0, f64::max);
+        return Err(format!(
+            "double hit: a second pulse of {:.0} % of the hit's force {:.4} s after it; hit once and let the hammer rebound away",
+            100.0 * second / peak,
+            (i - p) as f64 * rec.dt
+        ));
+    }
+    if flat_top(&f[h.start..h.end]) {
+        return Err(format!(
+            "force {} overloaded: flat top at {:.4e} (clipped); hit softer or raise the force sensor range",
+            h.input,
+            f[p]
+        ));
+    }
+    for a in rec.response_axes() {
+        let y = &rec.response(a).unwrap_or(&[])[h.start..h.end];
+        if flat_top(y) {
+            return Err(format!(
+                "response {a} overloaded (clipped at its extreme value); hit softer or raise the sensor range"
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// True when the extreme value of `x` (by magnitude) is held for three or more
+/// consecutive samples: a clipped (overloaded) channel.
+pub(super) fn flat_top(x: &[f64]) -> bool {
+    let Some((imax, &vmax)) = x
+        .iter()
+        .enumerate()
+        .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
+    else {
+        return false;
+    };
+    if vmax == 0.0 {
+        return false;
+    }
+    let tol = 1e-9 * vmax.abs();
+    let same = |i: usize| (x[i] - vmax).abs() <= tol;
+    let mut lo = imax;
+    while lo > 0 && same(lo - 1) {
+        lo -= 1;
+    }
+    let mut hi = imax;
+    while hi + 1 < x.len() && same(hi + 1) {
+        hi += 1;
+    }
+    hi - lo + 1 >= 3
+}
+
+/// Force window: 1 up to one pulse width after the pulse, cosine taper over one
+/// pulse width, 0 after (indices relative to the hit record).
+fn force_window(w: &mut [f64], h: &Hit) {
+    let width = (h.pulse_end - h.pulse_start).max(2);
+    let flat_end = h.pulse_end - h.start + width;
+    for (i, v) in w.iter_mut().enumerate() {
+        *v = if i < flat_end {
+            1.0
+        } else if i < flat_end + width {
+            0.5 + 0.5 * (PI * (i - flat_end) as f64 / width as f64).cos()
+        } else {
+            0.0
+        };
+    }
+}
