@@ -37,6 +37,7 @@ pub mod axis;
 pub mod error;
 pub mod frf;
 pub mod interpolate;
+pub mod lobes;
 pub mod modal_update;
 pub mod model;
 pub mod operating;
