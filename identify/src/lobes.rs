@@ -393,11 +393,9 @@ pub fn lobes_zoa(
     let sorted: Vec<f64> = order.iter().map(|&i| rpm[i]).collect();
     let (nmin, nmax) = (sorted[0], sorted[sorted.len() - 1]);
 
-    // (ap, ε) per branch at every scan frequency; None where Re λ ≤ 0.
+    // the branch-tracked eigenvalues of A0 G(iω) at every scan frequency
     let grid = zoa_grid(model);
-    let mut prev: Option<[Complex64; 2]> = None;
-    let mut samples: Vec<[Option<(f64, f64)>; 2]> = Vec::with_capacity(grid.len());
-    for &w in &grid {
+    let eig_at = |w: f64| -> [Complex64; 2] {
         let g = frf_matrix(model, &idx, w);
         let mut p = [[Complex64::new(0.0, 0.0); 2]; 2];
         for i in 0..2 {
@@ -405,52 +403,118 @@ pub fn lobes_zoa(
                 p[i][j] = g[0][j] * a0[i][0] + g[1][j] * a0[i][1];
             }
         }
-        let mut l = eig2(&p);
-        if let Some(q) = prev {
+        eig2(&p)
+    };
+    let mut lams: Vec<[Complex64; 2]> = Vec::with_capacity(grid.len());
+    for &w in &grid {
+        let mut l = eig_at(w);
+        if let Some(q) = lams.last() {
             let keep = (l[0] - q[0]).norm() + (l[1] - q[1]).norm();
             let swap = (l[1] - q[0]).norm() + (l[0] - q[1]).norm();
             if swap < keep {
                 l.swap(0, 1);
             }
         }
-        prev = Some(l);
-        samples.push(l.map(|lam| {
-            if lam.re > 0.0 && lam.re.is_finite() && lam.im.is_finite() {
-                let ap = 1.0 / (2.0 * cut.kt * lam.re);
-                let eps = PI + 2.0 * lam.im.atan2(lam.re);
-                Some((ap, eps))
-            } else {
-                None
-            }
-        }));
+        lams.push(l);
     }
+    // (ap, ε) of an eigenvalue; None where Re λ ≤ 0 (no positive depth)
+    let ap_eps = |lam: Complex64| -> Option<(f64, f64)> {
+        (lam.re > 0.0 && lam.re.is_finite() && lam.im.is_finite())
+            .then(|| (1.0 / (2.0 * cut.kt * lam.re), PI + 2.0 * lam.im.atan2(lam.re)))
+    };
+    let lobe_rpm = |w: f64, eps: f64, k: f64| 60.0 * w / (nt * (eps + 2.0 * PI * k));
 
+    // one curve segment [wa, wb] of a branch with Re λ > 0 at both ends
+    let mut process = |wa: f64, wb: f64, la: Complex64, lb: Complex64| {
+        let (Some((_, ea)), Some((_, eb))) = (ap_eps(la), ap_eps(lb)) else {
+            return;
+        };
+        // lobes k whose speed range may meet [nmin, nmax]
+        let kmax = ((60.0 * wb / (nt * nmin) - ea.min(eb)) / (2.0 * PI)).ceil();
+        let kmin = ((60.0 * wa / (nt * nmax) - ea.max(eb)) / (2.0 * PI)).floor();
+        let (kmin, kmax) = (kmin.max(0.0) as usize, kmax.max(0.0) as usize);
+        for k in kmin..=kmax {
+            let kf = k as f64;
+            let ra = lobe_rpm(wa, ea, kf);
+            let rb = lobe_rpm(wb, eb, kf);
+            let (lo, hi) = if ra < rb { (ra, rb) } else { (rb, ra) };
+            let start = sorted.partition_point(|&n| n < lo);
+            for (s, &n) in sorted.iter().enumerate().skip(start) {
+                if n > hi {
+                    break;
+                }
+                // bisection in ω for rpm_k(ω) = n on this branch: exact point of the
+                // curve (near a resonance the curve bends too fast to interpolate)
+                let (mut w0, mut w1, mut f0) = (wa, wb, ra - n);
+                let (mut ap, mut wc) = (f64::INFINITY, 0.5 * (wa + wb));
+                let mut ok = true;
+                for _ in 0..60 {
+                    let wm = 0.5 * (w0 + w1);
+                    let t = (wm - wa) / (wb - wa);
+                    let guess = la + (lb - la) * t;
+                    let l = eig_at(wm);
+                    let lm = if (l[0] - guess).norm() <= (l[1] - guess).norm() {
+                        l[0]
+                    } else {
+                        l[1]
+                    };
+                    let Some((apm, em)) = ap_eps(lm) else {
+                        ok = false;
+                        break;
+                    };
+                    (ap, wc) = (apm, wm);
+                    let fm = lobe_rpm(wm, em, kf) - n;
+                    if fm == 0.0 || (w1 - w0) < 1e-12 * wm {
+                        break;
+                    }
+                    if (fm < 0.0) == (f0 < 0.0) {
+                        (w0, f0) = (wm, fm);
+                    } else {
+                        w1 = wm;
+                    }
+                }
+                let pt = &mut out[order[s]];
+                if ok && ap < pt.ap_lim_m {
+                    pt.ap_lim_m = ap;
+                    pt.chatter_hz = wc / (2.0 * PI);
+                }
+            }
+        }
+    };
+    let pick = |w: f64, guess: Complex64| {
+        let l = eig_at(w);
+        if (l[0] - guess).norm() <= (l[1] - guess).norm() {
+            l[0]
+        } else {
+            l[1]
+        }
+    };
     for i in 0..grid.len().saturating_sub(1) {
         let (wa, wb) = (grid[i], grid[i + 1]);
         for b in 0..2 {
-            let (Some((apa, ea)), Some((apb, eb))) = (samples[i][b], samples[i + 1][b]) else {
-                continue;
-            };
-            // lobes k whose speed range may meet [nmin, nmax]
-            let kmax = ((60.0 * wb / (nt * nmin) - ea.min(eb)) / (2.0 * PI)).ceil();
-            let kmin = ((60.0 * wa / (nt * nmax) - ea.max(eb)) / (2.0 * PI)).floor();
-            let (kmin, kmax) = (kmin.max(0.0) as usize, kmax.max(0.0) as usize);
-            for k in kmin..=kmax {
-                let kf = 2.0 * PI * k as f64;
-                let ra = 60.0 * wa / (nt * (ea + kf));
-                let rb = 60.0 * wb / (nt * (eb + kf));
-                let (lo, hi) = if ra < rb { (ra, rb) } else { (rb, ra) };
-                let start = sorted.partition_point(|&n| n < lo);
-                for (s, &n) in sorted.iter().enumerate().skip(start) {
-                    if n > hi {
-                        break;
+            let (la, lb) = (lams[i][b], lams[i + 1][b]);
+            match (ap_eps(la).is_some(), ap_eps(lb).is_some()) {
+                (true, true) => process(wa, wb, la, lb),
+                (false, false) => {}
+                (va, _) => {
+                    // Re λ changes sign inside: the lobe's asymptote (ap → ∞). Find the
+                    // edge, so the steep part next to it is not lost between samples.
+                    let (mut good, mut bad) = if va { (wa, wb) } else { (wb, wa) };
+                    let mut lg = if va { la } else { lb };
+                    for _ in 0..50 {
+                        let wm = 0.5 * (good + bad);
+                        let t = (wm - wa) / (wb - wa);
+                        let lm = pick(wm, la + (lb - la) * t);
+                        if ap_eps(lm).is_some() {
+                            (good, lg) = (wm, lm);
+                        } else {
+                            bad = wm;
+                        }
                     }
-                    let t = if hi > lo { (n - ra) / (rb - ra) } else { 0.0 };
-                    let ap = apa + t * (apb - apa);
-                    let pt = &mut out[order[s]];
-                    if ap < pt.ap_lim_m {
-                        pt.ap_lim_m = ap;
-                        pt.chatter_hz = (wa + t * (wb - wa)) / (2.0 * PI);
+                    if va {
+                        process(wa, good, la, lg);
+                    } else {
+                        process(good, wb, lg, lb);
                     }
                 }
             }
