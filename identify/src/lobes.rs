@@ -342,7 +342,11 @@ fn eig2(m: &[[Complex64; 2]; 2]) -> [Complex64; 2] {
 
 /// Chatter frequency grid [rad/s]: geometric, fine enough for the lightest damping.
 fn zoa_grid(model: &ModalModel) -> Vec<f64> {
-    let wmin = model.modes.iter().map(|m| m.wn).fold(f64::INFINITY, f64::min);
+    let wmin = model
+        .modes
+        .iter()
+        .map(|m| m.wn)
+        .fold(f64::INFINITY, f64::min);
     let wmax = model.modes.iter().map(|m| m.wn).fold(0.0, f64::max);
     let zmin = model
         .modes
@@ -419,8 +423,12 @@ pub fn lobes_zoa(
     }
     // (ap, ε) of an eigenvalue; None where Re λ ≤ 0 (no positive depth)
     let ap_eps = |lam: Complex64| -> Option<(f64, f64)> {
-        (lam.re > 0.0 && lam.re.is_finite() && lam.im.is_finite())
-            .then(|| (1.0 / (2.0 * cut.kt * lam.re), PI + 2.0 * lam.im.atan2(lam.re)))
+        (lam.re > 0.0 && lam.re.is_finite() && lam.im.is_finite()).then(|| {
+            (
+                1.0 / (2.0 * cut.kt * lam.re),
+                PI + 2.0 * lam.im.atan2(lam.re),
+            )
+        })
     };
     let lobe_rpm = |w: f64, eps: f64, k: f64| 60.0 * w / (nt * (eps + 2.0 * PI * k));
 
@@ -592,12 +600,17 @@ fn period_grid(tool: &Tool, cut: &Cut, rpm: f64, ap: f64, opts: &SdOptions) -> V
 /// The monodromy matrix over one tooth period (row-major, `na × na`).
 ///
 /// State `z = [x (n); p_0 … p_{M−1}]`, `p_i` = the displacement at node `i` one period
-/// earlier. All `na` basis vectors are propagated at once as the columns of row vectors.
+/// earlier (outputs the model has no response in are left out). All `na` basis vectors are propagated at once as the columns of row vectors.
 fn monodromy(pairs: &[Pair], steps: &[Step], apkt: f64) -> Result<(usize, Vec<f64>)> {
     let np = pairs.len();
     let n = 2 * np;
     let mm = steps.len();
-    let na = n + 2 * mm;
+    // only outputs the model actually has get a history (an SDOF study has no y)
+    let active: Vec<usize> = (0..2)
+        .filter(|&o| pairs.iter().any(|p| p.c[o] != [0.0, 0.0]))
+        .collect();
+    let no = active.len();
+    let na = n + no * mm;
     let mut x = vec![0.0; n * na];
     for i in 0..n {
         x[i * na + i] = 1.0;
@@ -620,8 +633,9 @@ fn monodromy(pairs: &[Pair], steps: &[Step], apkt: f64) -> Result<(usize, Vec<f6
     };
     let unit = |i: usize| -> [Vec<f64>; 2] {
         let mut p = [vec![0.0; na], vec![0.0; na]];
-        p[0][n + 2 * i] = 1.0;
-        p[1][n + 2 * i + 1] = 1.0;
+        for (a, &o) in active.iter().enumerate() {
+            p[o][n + no * i + a] = 1.0;
+        }
         p
     };
     let r0 = out_r(&x);
@@ -717,10 +731,11 @@ fn monodromy(pairs: &[Pair], steps: &[Step], apkt: f64) -> Result<(usize, Vec<f6
         rs.push(std::mem::replace(&mut r_cur, out_r(&x)));
     }
     let mut u = x;
-    u.reserve(2 * mm * na);
+    u.reserve(no * mm * na);
     for r in &rs {
-        u.extend_from_slice(&r[0]);
-        u.extend_from_slice(&r[1]);
+        for &o in &active {
+            u.extend_from_slice(&r[o]);
+        }
     }
     Ok((na, u))
 }
@@ -815,14 +830,32 @@ impl SdProblem {
             ));
         }
         balance(na, &mut u);
-        let m = DMatrix::from_row_slice(na, na, &u);
-        let eig = nalgebra::Schur::try_new(m, f64::EPSILON, 100 * na)
-            .ok_or_else(|| Error::Numerical("eigenvalues of the monodromy did not converge".into()))?
-            .complex_eigenvalues();
+        // nalgebra's QR deflation test is purely relative to the diagonal, so the many
+        // (near-)zero multipliers of the history would never deflate: shift them away
+        // from zero by σ > ρ and shift back. Its iteration has no exceptional shifts, so
+        // on a rare stall retry with another σ (the eigenvalues are the same).
+        let bound = (0..na)
+            .map(|i| u[i * na..(i + 1) * na].iter().map(|v| v.abs()).sum::<f64>())
+            .fold(0.0, f64::max);
+        let mut eig = None;
+        for sigma in [1.0 + bound, 0.5 + 1.37 * bound, 3.0 + 2.9 * bound] {
+            let mut m = DMatrix::from_row_slice(na, na, &u);
+            for i in 0..na {
+                m[(i, i)] += sigma;
+            }
+            if let Some(schur) = nalgebra::Schur::try_new(m, f64::EPSILON, 300 * na) {
+                eig = Some((schur.complex_eigenvalues(), sigma));
+                break;
+            }
+        }
+        let (eig, sigma) = eig.ok_or_else(|| {
+            Error::Numerical("eigenvalues of the monodromy did not converge".into())
+        })?;
         let mut best = Complex64::new(0.0, 0.0);
         for e in eig.iter() {
+            let e = *e - sigma;
             if e.norm() > best.norm() {
-                best = *e;
+                best = e;
             }
         }
         Ok(Floquet {

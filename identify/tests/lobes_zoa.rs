@@ -1,7 +1,9 @@
 //! Zero-order lobes against the closed-form single-degree-of-freedom result.
 
 use identify::axis::{Axis, Channel};
-use identify::lobes::{average_directional_matrix, lobes_zoa, write_lobes_csv, Cut, LobePoint, Tool};
+use identify::lobes::{
+    average_directional_matrix, lobes_zoa, write_lobes_csv, Cut, LobePoint, Tool,
+};
 use identify::model::{ChannelModel, ModalModel, Mode, ModeNum};
 use identify::Error;
 use num_complex::Complex64;
@@ -118,8 +120,14 @@ fn sdof_lobe_minimum_is_2k_zeta_1_plus_zeta() {
         .iter()
         .min_by(|a, b| a.ap_lim_m.total_cmp(&b.ap_lim_m))
         .unwrap();
-    assert!(approx_eq(min.ap_lim_m, expected, 0.0, 1e-3), "{min:?} vs {expected}");
-    assert!(approx_eq(min.chatter_hz, FN * (1.0 + ZETA), 0.0, 2e-3), "{min:?}");
+    assert!(
+        approx_eq(min.ap_lim_m, expected, 0.0, 1e-3),
+        "{min:?} vs {expected}"
+    );
+    assert!(
+        approx_eq(min.chatter_hz, FN * (1.0 + ZETA), 0.0, 2e-3),
+        "{min:?}"
+    );
     // never below the minimum, never NaN
     assert!(lobes
         .iter()
@@ -158,7 +166,10 @@ fn symmetric_xy_slotting_independent_of_cross_terms_order() {
     }
     let rpm: Vec<f64> = (0..3000).map(|i| 8000.0 + 5.0 * i as f64).collect();
     let lobes = lobes_zoa(&model, &tool, &cut, &rpm).unwrap();
-    let min = lobes.iter().map(|p| p.ap_lim_m).fold(f64::INFINITY, f64::min);
+    let min = lobes
+        .iter()
+        .map(|p| p.ap_lim_m)
+        .fold(f64::INFINITY, f64::min);
     assert!(approx_eq(min, best, 0.0, 2e-3), "{min} vs {best}");
 }
 
@@ -204,6 +215,9 @@ fn csv_has_both_columns() {
         "rpm,ap_lim_zoa_m,ap_lim_sd_m,chatter_hz_zoa,chatter_hz_sd"
     );
     assert_eq!(lines[1], "1000,1e-3,inf,9e2,0e0");
-    let other = [LobePoint { rpm: 2000.0, ..s[0] }];
+    let other = [LobePoint {
+        rpm: 2000.0,
+        ..s[0]
+    }];
     assert!(write_lobes_csv(&path, &z, &other).is_err());
 }
