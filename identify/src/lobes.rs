@@ -698,7 +698,7 @@ fn monodromy(pairs: &[Pair], steps: &[Step], apkt: f64) -> Result<(usize, Vec<f6
                 }
             }
             let det = mat[0][0] * mat[1][1] - mat[0][1] * mat[1][0];
-            if !(det.abs() > 1e-12) {
+            if det.abs() <= 1e-12 || !det.is_finite() {
                 return Err(Error::Numerical(format!(
                     "semi-discretisation step is singular (det {det:e}); use more steps"
                 )));
