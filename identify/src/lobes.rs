@@ -451,13 +451,21 @@ pub fn lobes_zoa(
                 if n > hi {
                     break;
                 }
-                // bisection in ω for rpm_k(ω) = n on this branch: exact point of the
-                // curve (near a resonance the curve bends too fast to interpolate)
-                let (mut w0, mut w1, mut f0) = (wa, wb, ra - n);
+                // regula falsi (Illinois) in ω for rpm_k(ω) = n on this branch: the exact
+                // point of the curve (near a resonance it bends too fast to interpolate)
+                let (mut w0, mut w1, mut f0, mut f1) = (wa, wb, ra - n, rb - n);
                 let (mut ap, mut wc) = (f64::INFINITY, 0.5 * (wa + wb));
                 let mut ok = true;
-                for _ in 0..60 {
-                    let wm = 0.5 * (w0 + w1);
+                let mut side = 0i8;
+                for _ in 0..100 {
+                    let mut wm = if f1 != f0 {
+                        (w0 * f1 - w1 * f0) / (f1 - f0)
+                    } else {
+                        0.5 * (w0 + w1)
+                    };
+                    if !(wm > w0.min(w1) && wm < w0.max(w1)) {
+                        wm = 0.5 * (w0 + w1);
+                    }
                     let t = (wm - wa) / (wb - wa);
                     let guess = la + (lb - la) * t;
                     let l = eig_at(wm);
@@ -472,13 +480,21 @@ pub fn lobes_zoa(
                     };
                     (ap, wc) = (apm, wm);
                     let fm = lobe_rpm(wm, em, kf) - n;
-                    if fm == 0.0 || (w1 - w0) < 1e-12 * wm {
+                    if fm.abs() <= 1e-10 * n || (w1 - w0).abs() < 1e-13 * wm {
                         break;
                     }
                     if (fm < 0.0) == (f0 < 0.0) {
                         (w0, f0) = (wm, fm);
+                        if side == -1 {
+                            f1 *= 0.5;
+                        }
+                        side = -1;
                     } else {
-                        w1 = wm;
+                        (w1, f1) = (wm, fm);
+                        if side == 1 {
+                            f0 *= 0.5;
+                        }
+                        side = 1;
                     }
                 }
                 let pt = &mut out[order[s]];
@@ -1061,38 +1077,44 @@ impl SdProblem {
             let fl = self.floquet(rpm, ap)?;
             Ok((fl.spectral_radius.max(1e-300).ln(), fl))
         };
-        let mut a0 = if guess.is_finite() && guess > 0.0 {
+        let start = if guess.is_finite() && guess > 0.0 {
             guess
         } else {
             1e-3
         };
+        let mut a0 = start;
         let (mut lo, mut flo, mut hi, mut fhi, mut fl_hi);
         let (fa, fla) = f(a0)?;
         if fa < 0.0 {
             (lo, flo) = (a0, fa);
+            // SD and ZOA mostly agree within ±20 %: a tight first step, then doubling
+            let mut factor = 1.25;
             loop {
-                a0 *= 2.0;
+                a0 *= factor;
+                factor = 2.0;
                 let (fb, flb) = f(a0)?;
                 if fb >= 0.0 {
                     (hi, fhi, fl_hi) = (a0, fb, flb);
                     break;
                 }
                 (lo, flo) = (a0, fb);
-                if a0 > 1e3 * guess.max(1e-3) {
+                if a0 > 1e3 * start {
                     return Ok((f64::INFINITY, flb));
                 }
             }
         } else {
             (hi, fhi, fl_hi) = (a0, fa, fla);
+            let mut factor = 0.8;
             loop {
-                a0 *= 0.5;
+                a0 *= factor;
+                factor = 0.5;
                 let (fb, flb) = f(a0)?;
                 if fb < 0.0 {
                     (lo, flo) = (a0, fb);
                     break;
                 }
                 (hi, fhi, fl_hi) = (a0, fb, flb);
-                if a0 < 1e-9 * guess.max(1e-12) {
+                if a0 < 1e-9 * start {
                     return Ok((0.0, flb));
                 }
             }
