@@ -273,3 +273,152 @@ fn helix_and_residual_are_handled() {
     };
     assert!(lobes_sd(&model, &bad, &cut(0.5), &[12000.0], &opts(20)).is_err());
 }
+
+/// Brute force for a general x–y modal model (cross channels included): RK4 on the modal
+/// states `q̈ + 2ζω q̇ + ω² q = F_j`, `r_o = Σ b0 q + b1 q̇`, with the force from the
+/// definition `F = ap Kt Σ_j g(φ_j) [−cos φ − Kr sin φ; sin φ − Kr cos φ] h_j`,
+/// `h_j = sin φ Δx + cos φ Δy`, `Δ = r(t) − r(t − τ)` (delayed r linear between the
+/// stored samples, fine steps). Returns the growth of the peak |r| as in [`growth`].
+fn growth_2d(
+    model: &ModalModel,
+    n_teeth: usize,
+    c: &Cut,
+    rpm: f64,
+    ap: f64,
+    periods: usize,
+) -> f64 {
+    let nm = model.modes.len();
+    let idx = |o: Axis, j: Axis| model.channel_index(Channel::new(o, j));
+    let ax = [Axis::X, Axis::Y];
+    let tau = 60.0 / (rpm * n_teeth as f64);
+    let om = 2.0 * PI * rpm / 60.0;
+    let (st, ex) = if c.down_milling {
+        ((2.0 * c.radial_immersion - 1.0f64).acos(), PI)
+    } else {
+        (0.0, (1.0 - 2.0 * c.radial_immersion).acos())
+    };
+    let k_per = 600usize;
+    let dt = tau / k_per as f64;
+    // state: for mode k, axis j: (q, v) at 4k + 2j
+    let ns = 4 * nm;
+    let out = |s: &[f64]| -> [f64; 2] {
+        let mut r = [0.0; 2];
+        for o in 0..2 {
+            for j in 0..2 {
+                if let Some(ci) = idx(ax[o], ax[j]) {
+                    for k in 0..nm {
+                        let n = model.channels[ci].num[k];
+                        r[o] += n.b0 * s[4 * k + 2 * j] + n.b1 * s[4 * k + 2 * j + 1];
+                    }
+                }
+            }
+        }
+        r
+    };
+    let force = |t: f64, r: [f64; 2], rd: [f64; 2]| -> [f64; 2] {
+        let (dx, dy) = (r[0] - rd[0], r[1] - rd[1]);
+        let mut f = [0.0; 2];
+        for j in 0..n_teeth {
+            let phi = (om * t + 2.0 * PI * j as f64 / n_teeth as f64).rem_euclid(2.0 * PI);
+            if phi >= st && phi <= ex {
+                let (s, co) = phi.sin_cos();
+                let h = s * dx + co * dy;
+                f[0] += ap * c.kt * (-co - c.kr * s) * h;
+                f[1] += ap * c.kt * (s - c.kr * co) * h;
+            }
+        }
+        f
+    };
+    let deriv = |t: f64, s: &[f64], rd: [f64; 2]| -> Vec<f64> {
+        let f = force(t, out(s), rd);
+        let mut d = vec![0.0; ns];
+        for (k, m) in model.modes.iter().enumerate() {
+            for j in 0..2 {
+                let (q, v) = (s[4 * k + 2 * j], s[4 * k + 2 * j + 1]);
+                d[4 * k + 2 * j] = v;
+                d[4 * k + 2 * j + 1] = f[j] - 2.0 * m.zeta * m.wn * v - m.wn * m.wn * q;
+            }
+        }
+        d
+    };
+    let mut s = vec![0.0; ns];
+    s[0] = 1e-9;
+    s[3] = 1e-9;
+    let l = k_per + 1;
+    let mut hist = vec![[0.0f64; 2]; l];
+    let mut peaks = vec![0.0f64; periods];
+    for step in 0..periods * k_per {
+        let t = step as f64 * dt;
+        let old = (step + 1) % l; // r(t − τ)
+        let r_a = hist[old];
+        let r_b = hist[(step + 2) % l];
+        let mid = [0.5 * (r_a[0] + r_b[0]), 0.5 * (r_a[1] + r_b[1])];
+        hist[step % l] = out(&s);
+        let add = |a: &[f64], b: &[f64], h: f64| -> Vec<f64> {
+            a.iter().zip(b).map(|(x, y)| x + h * y).collect()
+        };
+        let k1 = deriv(t, &s, r_a);
+        let k2 = deriv(t + 0.5 * dt, &add(&s, &k1, 0.5 * dt), mid);
+        let k3 = deriv(t + 0.5 * dt, &add(&s, &k2, 0.5 * dt), mid);
+        let k4 = deriv(t + dt, &add(&s, &k3, dt), r_b);
+        for i in 0..ns {
+            s[i] += dt / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
+        }
+        let r = out(&s);
+        let p = step / k_per;
+        peaks[p] = peaks[p].max(r[0].abs().max(r[1].abs()));
+    }
+    let early = peaks[40..60].iter().cloned().fold(0.0, f64::max);
+    let late = peaks[periods - 20..].iter().cloned().fold(0.0, f64::max);
+    late / early
+}
+
+#[test]
+fn two_dof_with_cross_channels_matches_brute_force() {
+    // two modes, both seen in x and y with cross terms (a tilted principal direction),
+    // 3 teeth, half immersion up milling
+    let num = |b: [f64; 2]| {
+        b.iter()
+            .map(|&b0| ModeNum { b0, b1: 0.0 })
+            .collect::<Vec<_>>()
+    };
+    let ch = |o, j, b: [f64; 2]| ChannelModel {
+        channel: Channel::new(o, j),
+        num: num(b),
+        d: 0.0,
+    };
+    let (c1, s1) = (0.9f64, 0.436f64); // mode 1 direction ≈ 26°
+    let (c2, s2) = (-s1, c1);
+    let (m1, m2) = (1.0 / 0.5, 1.0 / 0.6);
+    let model = ModalModel {
+        modes: vec![Mode::from_hz(700.0, 0.03), Mode::from_hz(820.0, 0.025)],
+        channels: vec![
+            ch(Axis::X, Axis::X, [m1 * c1 * c1, m2 * c2 * c2]),
+            ch(Axis::Y, Axis::Y, [m1 * s1 * s1, m2 * s2 * s2]),
+            ch(Axis::X, Axis::Y, [m1 * c1 * s1, m2 * c2 * s2]),
+            ch(Axis::Y, Axis::X, [m1 * c1 * s1, m2 * c2 * s2]),
+        ],
+    };
+    let tool = Tool { teeth: 3, ..tool() };
+    let c = Cut {
+        radial_immersion: 0.5,
+        down_milling: false,
+        kt: 6e8,
+        kr: 0.3,
+    };
+    for rpm in [9000.0, 13500.0] {
+        let sd = lobes_sd(&model, &tool, &c, &[rpm], &opts(40)).unwrap()[0];
+        let zoa = lobes_zoa(&model, &tool, &c, &[rpm]).unwrap()[0];
+        assert!(sd.ap_lim_m.is_finite(), "{sd:?}");
+        let below = growth_2d(&model, 3, &c, rpm, 0.9 * sd.ap_lim_m, 200);
+        let above = growth_2d(&model, 3, &c, rpm, 1.1 * sd.ap_lim_m, 200);
+        eprintln!(
+            "rpm {rpm}: sd {:.4} mm @ {:.1} Hz, zoa {:.4} mm @ {:.1} Hz; growth at 0.9: {below:.3e}, 1.1: {above:.3e}",
+            sd.ap_lim_m * 1e3,
+            sd.chatter_hz,
+            zoa.ap_lim_m * 1e3,
+            zoa.chatter_hz
+        );
+        assert!(below < 0.5 && above > 2.0, "rpm {rpm}: {below} {above}");
+    }
+}
