@@ -73,7 +73,7 @@ fn growth(rpm: f64, ap: f64, ae: f64, periods: usize) -> f64 {
         }
         s
     };
-    let k_per = 400usize;
+    let k_per = if ae < 1.0 { 2000usize } else { 400 };
     let dt = tau / k_per as f64;
     let mut hist: Vec<(f64, f64)> = vec![(0.0, 0.0); k_per + 1]; // ring of (x, v)
     let delayed = |hist: &Vec<(f64, f64)>, i: usize, frac: f64| -> f64 {
@@ -132,12 +132,24 @@ fn boundary_matches_brute_force_time_simulation() {
         (0.05, 10000.0),
         (0.05, 16000.0),
     ] {
-        let sd = lobes_sd(&model, &tool(), &cut(ae), &[rpm], &opts(30)).unwrap()[0];
+        let sd = lobes_sd(&model, &tool(), &cut(ae), &[rpm], &opts(80)).unwrap()[0];
         assert!(sd.ap_lim_m.is_finite() && sd.ap_lim_m > 0.0, "{sd:?}");
-        let below = growth(rpm, 0.85 * sd.ap_lim_m, ae, 240);
-        let above = growth(rpm, 1.15 * sd.ap_lim_m, ae, 240);
+        let periods = 600;
+        let below = growth(rpm, 0.95 * sd.ap_lim_m, ae, periods);
+        let above = growth(rpm, 1.05 * sd.ap_lim_m, ae, periods);
+        // the per-period growth factor of the simulation is the spectral radius
+        // (peaks of [40, 60) vs the last 20 periods: 540 periods apart)
+        let span = (periods - 20 - 40) as f64;
+        for (g, f) in [(below, 0.95), (above, 1.05)] {
+            let rho_bf = g.powf(1.0 / span);
+            let rho_sd = floquet_sd(&model, &tool(), &cut(ae), rpm, f * sd.ap_lim_m, &opts(80))
+                .unwrap()
+                .spectral_radius;
+            eprintln!("  ap×{f}: rho brute force {rho_bf:.5}, rho sd {rho_sd:.5}");
+            assert!((rho_bf - rho_sd).abs() < 5e-3, "{rho_bf} vs {rho_sd}");
+        }
         eprintln!(
-            "ae {ae} rpm {rpm}: ap_sd {:.3} mm, growth at 0.85: {below:.3e}, at 1.15: {above:.3e}",
+            "ae {ae} rpm {rpm}: ap_sd {:.3} mm, growth at 0.95: {below:.3e}, at 1.05: {above:.3e}",
             sd.ap_lim_m * 1e3
         );
         assert!(
