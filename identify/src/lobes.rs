@@ -26,6 +26,17 @@
 //!   and its Floquet multipliers (Insperger & Stépán). Stable ⇔ spectral radius < 1;
 //!   `ap` limit by a bracketed root search on `ln ρ(ap)` started from the ZOA value.
 //!   See [`SdOptions`] for the exact variant.
+//!
+//! Accuracy of the semi-discretisation (tests `identify/tests/lobes_sd.rs`): second order
+//! in the step; with ~2.5 vibration periods per tooth period the limit is within ~3 % at
+//! `steps = 40`, ~0.7 % at 80, ~0.2 % at 160. Its spectral radius matches the growth
+//! factor of a brute-force time simulation of the delay equation to < 0.5 %. Cost: one
+//! monodromy of a 10-mode twin (n = 40, 40 steps) ≈ 4 ms in release; the eigenvalues
+//! (size `n + 2·steps`) dominate.
+//!
+//! A residual compliance `d` is exact in ZOA; the semi-discretisation replaces it by a
+//! well-damped pseudo-mode ten times above the highest mode (with feedthrough the delay
+//! equation would be of neutral type).
 
 use crate::axis::{Axis, Channel};
 use crate::error::{Error, Result};
@@ -43,9 +54,9 @@ use std::path::Path;
 pub struct Tool {
     /// Number of teeth (flutes), ≥ 1.
     pub teeth: usize,
-    /// Diameter [m] (only used with a helix, for the axial lag).
+    /// Diameter \[m\] (only used with a helix, for the axial lag).
     pub diameter_m: f64,
-    /// Helix angle [deg] (0 = straight flutes). The ZOA average is independent of it; the
+    /// Helix angle \[deg\] (0 = straight flutes). The ZOA average is independent of it; the
     /// semi-discretisation spreads each tooth's engagement over the axial lag.
     pub helix_deg: f64,
 }
@@ -57,7 +68,7 @@ pub struct Cut {
     pub radial_immersion: f64,
     /// Down (climb) milling when true, up (conventional) milling when false.
     pub down_milling: bool,
-    /// Tangential cutting coefficient Kt [N/m²].
+    /// Tangential cutting coefficient Kt \[N/m²\].
     pub kt: f64,
     /// Radial to tangential force ratio Kr = Fr/Ft (dimensionless).
     pub kr: f64,
@@ -66,11 +77,11 @@ pub struct Cut {
 /// One point of a stability lobe diagram.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LobePoint {
-    /// Spindle speed [rev/min].
+    /// Spindle speed \[rev/min\].
     pub rpm: f64,
-    /// Limiting axial depth of cut [m] (`f64::INFINITY` if no chatter was found).
+    /// Limiting axial depth of cut \[m\] (`f64::INFINITY` if no chatter was found).
     pub ap_lim_m: f64,
-    /// Chatter frequency at the limit [Hz] (0 when `ap_lim_m` is infinite).
+    /// Chatter frequency at the limit \[Hz\] (0 when `ap_lim_m` is infinite).
     pub chatter_hz: f64,
 }
 
@@ -340,7 +351,7 @@ fn eig2(m: &[[Complex64; 2]; 2]) -> [Complex64; 2] {
     [h + r, h - r]
 }
 
-/// Chatter frequency grid [rad/s]: geometric, fine enough for the lightest damping.
+/// Chatter frequency grid \[rad/s\]: geometric, fine enough for the lightest damping.
 fn zoa_grid(model: &ModalModel) -> Vec<f64> {
     let wmin = model
         .modes
@@ -550,7 +561,7 @@ pub fn lobes_zoa(
 // ---------------------------------------------------------------------------------------
 // semi-discretisation
 
-/// One step of the period grid: length [s] and the unit directional average
+/// One step of the period grid: length \[s\] and the unit directional average
 /// (multiply by `ap Kt`), `None` in free flight.
 #[derive(Debug, Clone, Copy)]
 struct Step {
@@ -1185,7 +1196,7 @@ pub fn floquet_sd(
     SdProblem::new(model, tool, cut, opts)?.floquet(rpm, ap)
 }
 
-/// Is the cut at `rpm`, depth `ap` [m] stable? Returns `(stable, spectral radius)` by the
+/// Is the cut at `rpm`, depth `ap` \[m\] stable? Returns `(stable, spectral radius)` by the
 /// semi-discretisation with default [`SdOptions`].
 pub fn stable_sd(
     model: &ModalModel,
