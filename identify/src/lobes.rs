@@ -1082,6 +1082,26 @@ impl SdProblem {
         })
     }
 
+    /// [`SdProblem::limit`], then probes at 80 % and 50 % of the limit: an unstable probe
+    /// (a lower lobe, e.g. a flip lobe, that the ZOA guess jumped over) restarts the
+    /// search below it. A guard, not a proof: narrow unstable islands can still hide.
+    fn limit_guarded(&self, rpm: f64, guess: f64) -> Result<(f64, Floquet)> {
+        let (mut ap, mut fl) = self.limit(rpm, guess)?;
+        'outer: for _ in 0..4 {
+            if !ap.is_finite() || ap <= 0.0 {
+                break;
+            }
+            for frac in [0.8, 0.5] {
+                if self.floquet(rpm, frac * ap)?.spectral_radius >= 1.0 {
+                    (ap, fl) = self.limit(rpm, frac * ap)?;
+                    continue 'outer;
+                }
+            }
+            break;
+        }
+        Ok((ap, fl))
+    }
+
     /// The smallest unstable depth near `guess` by bracketing and Illinois on ln ρ.
     fn limit(&self, rpm: f64, guess: f64) -> Result<(f64, Floquet)> {
         let f = |ap: f64| -> Result<(f64, Floquet)> {
@@ -1211,7 +1231,8 @@ pub fn stable_sd(
 
 /// Semi-discretisation stability lobes at the requested spindle speeds (parallel over
 /// speeds). Each limit is the first depth where the spectral radius reaches 1, found by
-/// bracketing from the ZOA limit and regula falsi on `ln ρ(ap)` to `opts.rel_tol`.
+/// bracketing from the ZOA limit and regula falsi on `ln ρ(ap)` to `opts.rel_tol`, then
+/// checked for instability at 80 % and 50 % of it (a lower lobe restarts the search).
 /// The chatter frequency is the alias of the critical multiplier's phase closest to the
 /// ZOA chatter frequency (a flip multiplier gives an odd multiple of half the tooth
 /// passing frequency).
@@ -1228,7 +1249,7 @@ pub fn lobes_sd(
     let near_default = model.modes.iter().map(|m| m.freq_hz()).fold(0.0, f64::max);
     zoa.par_iter()
         .map(|z| {
-            let (ap, fl) = prob.limit(z.rpm, z.ap_lim_m)?;
+            let (ap, fl) = prob.limit_guarded(z.rpm, z.ap_lim_m)?;
             let tau = 60.0 / (z.rpm * tool.teeth as f64);
             let near = if z.chatter_hz > 0.0 {
                 z.chatter_hz
