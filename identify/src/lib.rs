@@ -39,6 +39,7 @@ pub mod error;
 pub mod extended;
 pub mod frf;
 pub mod interpolate;
+pub mod lobes;
 pub mod modal_update;
 pub mod model;
 pub mod operating;
