@@ -103,6 +103,9 @@ pub struct FitOptions {
     /// Automatic order: an added pair must lower the relative weighted residual by this
     /// fraction (default 0.05).
     pub min_improvement: f64,
+    /// Automatic order: the residual counts as measurement noise (no mode missing) when
+    /// its lag-one correlation along frequency is below this (default 0.5).
+    pub white_residual: f64,
     /// Settings of the stabilization diagram.
     pub stabilization: StabilizationOptions,
 }
@@ -120,6 +123,7 @@ impl Default for FitOptions {
             lm_iterations: 30,
             target_residual: 1e-3,
             min_improvement: 0.05,
+            white_residual: 0.5,
             stabilization: StabilizationOptions::default(),
         }
     }
@@ -289,10 +293,11 @@ fn fit_order(
     })?;
     let _ = writeln!(
         report,
-        "order {} pairs: {} SK/VF iterations, relative weighted error {:.3e}",
+        "order {} pairs: {} SK/VF iterations, relative weighted error {:.3e}, residual lag-1 correlation {:.2}",
         modes.len(),
         its,
-        (sol.cost / prep.energy()).sqrt()
+        (sol.cost / prep.energy()).sqrt(),
+        varpro::lag_one_correlation(prep, &sol)
     );
     Ok(sol)
 }
@@ -326,11 +331,28 @@ fn auto_order(
     let noise = noise_floor(prep);
     let max_modes = opts.max_modes.max(1);
     let n0 = physical.len().clamp(1, max_modes);
-    let mut best = fit_order(prep, start_poles(prep, physical, n0), opts, report)?;
     let rel = |s: &Solved| (s.cost / energy).sqrt();
+    let white = |s: &Solved| varpro::lag_one_correlation(prep, s) < opts.white_residual;
     let done = |s: &Solved| {
-        rel(s) <= opts.target_residual || noise.is_some_and(|nf| s.cost <= nf)
+        rel(s) <= opts.target_residual || noise.is_some_and(|nf| s.cost <= nf) || white(s)
     };
+    let mut best = fit_order(prep, start_poles(prep, physical, n0), opts, report)?;
+    // Prune diagram modes that only fit noise: drop the weakest while the residual
+    // stays white.
+    while best.modes.len() > 1 && white(&best) && rel(&best) > opts.target_residual {
+        let contrib = varpro::mode_contributions(prep, &best);
+        let weakest = (0..contrib.len())
+            .min_by(|&a, &b| contrib[a].total_cmp(&contrib[b]))
+            .unwrap_or(0);
+        let mut modes = best.modes.clone();
+        modes.remove(weakest);
+        let cand = fit_order(prep, vf::modes_to_poles(&modes), opts, report)?;
+        if white(&cand) {
+            best = cand;
+        } else {
+            break;
+        }
+    }
     let mut current = best.clone();
     while !done(&best) && current.modes.len() < max_modes {
         let next = add_pair(prep, &current, opts, report)?;

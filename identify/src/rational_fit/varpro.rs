@@ -230,19 +230,71 @@ pub(crate) fn refine(p: &Prepared, start: &[Mode], max_iter: usize) -> Option<So
     Some(best)
 }
 
-/// Weighted residual magnitude per line, summed over channels (scaled units).
+/// Weighted residual energy per line, summed over channels (scaled units).
 pub(crate) fn residual_per_line(p: &Prepared, sol: &Solved) -> Vec<f64> {
-    let n = sol.modes.len();
+    let res = residuals(p, sol);
     (0..p.n_lines())
-        .map(|k| {
-            let s = p.s[k];
+        .map(|k| res.iter().map(|r| r[k].norm_sqr()).sum())
+        .collect()
+}
+
+/// Weighted residual per channel and line (scaled units).
+pub(crate) fn residuals(p: &Prepared, sol: &Solved) -> Vec<Vec<Complex64>> {
+    let n = sol.modes.len();
+    sol.coefs
+        .iter()
+        .enumerate()
+        .map(|(ci, x)| {
+            (0..p.n_lines())
+                .map(|k| {
+                    let s = p.s[k];
+                    let mut hm = Complex64::new(x[2 * n], 0.0);
+                    for (j, m) in sol.modes.iter().enumerate() {
+                        hm += (s * x[2 * j] + x[2 * j + 1]) / m.den(s);
+                    }
+                    (p.h[ci][k] - hm) * p.w[ci][k]
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// Lag-one correlation of the weighted residual along frequency, pooled over channels:
+/// `Re Σ r_k r̄_{k+1} / Σ |r_k|²` over neighbouring usable lines. About 0 when the
+/// residual is measurement noise, near 1 when it is a smooth model error (a missing
+/// mode).
+pub(crate) fn lag_one_correlation(p: &Prepared, sol: &Solved) -> f64 {
+    let res = residuals(p, sol);
+    let (mut num, mut den) = (0.0, 0.0);
+    for (ci, r) in res.iter().enumerate() {
+        for k in 0..r.len() {
+            if p.w[ci][k] == 0.0 {
+                continue;
+            }
+            den += r[k].norm_sqr();
+            if k + 1 < r.len() && p.w[ci][k + 1] > 0.0 {
+                num += (r[k] * r[k + 1].conj()).re;
+            }
+        }
+    }
+    if den > 0.0 {
+        num / den
+    } else {
+        0.0
+    }
+}
+
+/// Weighted size of each mode's contribution Σ_c Σ_k w² |term|².
+pub(crate) fn mode_contributions(p: &Prepared, sol: &Solved) -> Vec<f64> {
+    (0..sol.modes.len())
+        .map(|j| {
+            let m = sol.modes[j];
             let mut acc = 0.0;
             for (ci, x) in sol.coefs.iter().enumerate() {
-                let mut hm = Complex64::new(x[2 * n], 0.0);
-                for (j, m) in sol.modes.iter().enumerate() {
-                    hm += (s * x[2 * j] + x[2 * j + 1]) / m.den(s);
+                for k in 0..p.n_lines() {
+                    let s = p.s[k];
+                    acc += ((s * x[2 * j] + x[2 * j + 1]) / m.den(s) * p.w[ci][k]).norm_sqr();
                 }
-                acc += (p.w[ci][k] * (p.h[ci][k] - hm)).norm_sqr();
             }
             acc
         })
