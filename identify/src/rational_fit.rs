@@ -1,1 +1,445 @@
-//! (work in progress)
+//! Rational fit of measured FRFs (what MATLAB `tfest` does in the paper's section 2.2,
+//! minimising its equation 2, `Σ |W (H − F)|²`).
+//!
+//! All channels of a pose share their poles; each channel has its own numerators and
+//! constant residual. The fit runs in three stages, all in scaled units (frequency
+//! divided by the band top, every channel normalised to unit weighted RMS):
+//!
+//! 1. **Order** ([`crate::stabilization`]): a pLSCF stabilization diagram gives the
+//!    physical modes (poles stable over several orders, physically damped, where the
+//!    coherence is good). With [`FitOptions::n_modes`] = `None` their number is the
+//!    starting order.
+//! 2. **Sanathanan–Koerner iterations as relaxed vector fitting** (common poles,
+//!    partial-fraction basis, unstable poles flipped) from the diagram's poles, filled up
+//!    with lightly damped pairs where needed.
+//! 3. **Refinement** of the true weighted error by Levenberg–Marquardt over each mode's
+//!    `(ln ω, ln ζ)` — so every mode stays stable — with the numerators eliminated by
+//!    variable projection.
+//!
+//! **Automatic order rule.** Start with the physical modes of the diagram (at least one).
+//! Then add one pole pair at a time, placed at the line of largest weighted residual,
+//! while the relative weighted residual `‖W(H−F)‖/‖W F‖` is above
+//! [`FitOptions::target_residual`] and above the noise floor implied by the coherence
+//! (`σ² = |F|² (1−γ²)/γ²` per line, when coherence is given), and while each new pair
+//! lowers the residual by at least [`FitOptions::min_improvement`] (one extra pair of
+//! look-ahead, so two close modes that only pay off together are still found). The
+//! extra pairs stand for close modes the diagram could not separate and for out-of-band
+//! influence; modes are never added where the lines are unusable because unusable lines
+//! carry no weight.
+//!
+//! ```
+//! use identify::axis::{Axis, Channel};
+//! use identify::model::{ChannelModel, ModalModel, Mode, ModeNum};
+//! use identify::rational_fit::{fit_frf, FitOptions};
+//! let truth = ModalModel {
+//!     modes: vec![Mode::from_hz(80.0, 0.02), Mode::from_hz(210.0, 0.03)],
+//!     channels: vec![ChannelModel {
+//!         channel: Channel::new(Axis::X, Axis::X),
+//!         num: vec![ModeNum { b0: 1.0, b1: 0.0 }, ModeNum { b0: 2.0, b1: 0.0 }],
+//!         d: 0.0,
+//!     }],
+//! };
+//! let freqs: Vec<f64> = (1..=400).map(|k| k as f64).collect();
+//! let fit = fit_frf(&truth.frf(&freqs), &FitOptions::default()).unwrap();
+//! assert_eq!(fit.model.modes.len(), 2);
+//! assert!(fit.fit_pct[0].1 > 99.9);
+//! ```
+
+mod data;
+mod linalg;
+mod varpro;
+mod vf;
+
+use crate::axis::Channel;
+use crate::error::{Error, Result};
+use crate::frf::{fit_percent, Frf};
+use crate::model::{ModalModel, Mode};
+use crate::stabilization::{self, StabilizationDiagram, StabilizationOptions};
+use data::Prepared;
+use num_complex::Complex64;
+use std::f64::consts::PI;
+use std::fmt::Write as _;
+use varpro::Solved;
+
+pub use crate::stabilization::poly_roots;
+
+/// How the lines are weighted in `Σ |W (H − F)|²`.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub enum Weighting {
+    /// Default. `W² ∝ γ²/(1−γ²)` (the inverse relative variance of an H1 estimate),
+    /// with γ² clipped at 0.99 so every line of coherence ≥ 0.99 counts fully (W = 1);
+    /// uniform for channels without coherence. Lines below
+    /// [`FitOptions::min_coherence`] get W = 0.
+    #[default]
+    Coherence,
+    /// W = 1 on every line (the paper's 3-DoF example).
+    Uniform,
+    /// Amplitude weight W per channel per line of the input FRF (≥ 0).
+    Custom(Vec<Vec<f64>>),
+}
+
+/// Settings of [`fit_frf`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct FitOptions {
+    /// Number of modes (pole pairs); `None` = automatic (see the module docs).
+    pub n_modes: Option<usize>,
+    /// Fitted band [Hz], inclusive; `None` = every line.
+    pub band_hz: Option<(f64, f64)>,
+    /// Line weighting.
+    pub weighting: Weighting,
+    /// Lines whose coherence is below this are not fitted (default 0.5).
+    pub min_coherence: f64,
+    /// Upper limit of the automatic order in pole pairs (default 40).
+    pub max_modes: usize,
+    /// Maximum vector-fitting (SK) iterations per order (default 12).
+    pub sk_iterations: usize,
+    /// Run the Levenberg–Marquardt refinement of the true weighted error (default true).
+    pub refine: bool,
+    /// Maximum Levenberg–Marquardt iterations (default 30).
+    pub lm_iterations: usize,
+    /// Automatic order: stop adding pairs once the relative weighted residual is below
+    /// this (default 1e-3).
+    pub target_residual: f64,
+    /// Automatic order: an added pair must lower the relative weighted residual by this
+    /// fraction (default 0.05).
+    pub min_improvement: f64,
+    /// Automatic order: the residual counts as measurement noise (no mode missing) when
+    /// its lag-one correlation along frequency is below this (default 0.5).
+    pub white_residual: f64,
+    /// Settings of the stabilization diagram.
+    pub stabilization: StabilizationOptions,
+}
+
+impl Default for FitOptions {
+    fn default() -> Self {
+        FitOptions {
+            n_modes: None,
+            band_hz: None,
+            weighting: Weighting::Coherence,
+            min_coherence: 0.5,
+            max_modes: 40,
+            sk_iterations: 12,
+            refine: true,
+            lm_iterations: 30,
+            target_residual: 1e-3,
+            min_improvement: 0.05,
+            white_residual: 0.5,
+            stabilization: StabilizationOptions::default(),
+        }
+    }
+}
+
+/// Outcome of [`fit_frf`].
+#[derive(Debug, Clone)]
+pub struct FitResult {
+    /// The identified model (modes sorted, stable, finite), in original units.
+    pub model: ModalModel,
+    /// Paper eq. 5 fit [%] per channel over the fitted lines (band, weight > 0).
+    pub fit_pct: Vec<(Channel, f64)>,
+    /// The stabilization diagram the order came from.
+    pub diagram: StabilizationDiagram,
+    /// True when the order was chosen automatically.
+    pub automatic_order: bool,
+    /// Human-readable log: orders tried, iterations, weighted errors.
+    pub report: String,
+}
+
+/// Identifies a common-pole modal model of all channels of `frf` (see the module docs).
+pub fn fit_frf(frf: &Frf, opts: &FitOptions) -> Result<FitResult> {
+    let prep = Prepared::new(frf, opts)?;
+    let diagram = stabilization::diagram(&prep.band, &prep.w, &opts.stabilization)?;
+    let mut report = String::new();
+    let energy = prep.energy();
+    if energy <= 0.0 {
+        return Err(Error::BadInput(
+            "the FRF is zero on every fitted line: nothing to identify".into(),
+        ));
+    }
+    let _ = writeln!(
+        report,
+        "{} lines, {} channel(s), band {:.4}..{:.4} Hz; diagram orders 2..{}: {} physical mode(s){}",
+        prep.n_lines(),
+        prep.channels.len(),
+        prep.band.freqs_hz[0],
+        prep.band.freqs_hz[prep.n_lines() - 1],
+        diagram.orders.last().map(|o| o.order).unwrap_or(0),
+        diagram.n_physical(),
+        diagram
+            .physical
+            .iter()
+            .map(|m| format!(" {:.2} Hz/{:.3}%", m.f_hz, 100.0 * m.zeta))
+            .collect::<String>()
+    );
+    let physical: Vec<Complex64> = diagram
+        .physical
+        .iter()
+        .map(|m| {
+            let wn = 2.0 * PI * m.f_hz / prep.w_scale;
+            Mode { wn, zeta: m.zeta }.pole()
+        })
+        .collect();
+
+    let sol = match opts.n_modes {
+        Some(n) => {
+            if n == 0 || n > 200 {
+                return Err(Error::BadInput(format!(
+                    "n_modes = {n}: give between 1 and 200 modes, or None for automatic"
+                )));
+            }
+            let poles = start_poles(&prep, &physical, n);
+            fit_order(&prep, poles, opts, &mut report)?
+        }
+        None => auto_order(&prep, &physical, opts, &mut report)?,
+    };
+    let sol = if opts.refine {
+        let before = sol.cost;
+        match varpro::refine(&prep, &sol.modes, opts.lm_iterations) {
+            Some(r) if r.cost <= before => {
+                let _ = writeln!(
+                    report,
+                    "Levenberg-Marquardt: {} iterations, relative weighted error {:.3e} -> {:.3e}",
+                    r.iterations,
+                    (before / energy).sqrt(),
+                    (r.cost / energy).sqrt()
+                );
+                r
+            }
+            _ => sol,
+        }
+    } else {
+        sol
+    };
+    let model = finish(&prep, &sol)?;
+    let fit_pct = fit_percentages(&prep, &model);
+    let _ = writeln!(
+        report,
+        "final: {} modes, relative weighted error {:.3e}, fit {}",
+        model.modes.len(),
+        (sol.cost / energy).sqrt(),
+        fit_pct
+            .iter()
+            .map(|(c, f)| format!("{c} {f:.3}%"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    Ok(FitResult {
+        model,
+        fit_pct,
+        diagram,
+        automatic_order: opts.n_modes.is_none(),
+        report,
+    })
+}
+
+/// Refits `frf` starting from `initial` (same number of modes): Levenberg–Marquardt on
+/// the modes with the numerators of every channel of `frf` solved anew, minimising
+/// `Σ |W (H − F)|²` with `weights[c][k]` the amplitude weight of channel `c` at line `k`
+/// of `frf` (this overrides `opts.weighting`; `opts.band_hz` and `opts.min_coherence`
+/// still apply). Used for the lifetime updates (paper section 2.3).
+pub fn refine_from(
+    initial: &ModalModel,
+    frf: &Frf,
+    weights: &[Vec<f64>],
+    opts: &FitOptions,
+) -> Result<ModalModel> {
+    if initial.modes.is_empty() || !initial.is_valid() {
+        return Err(Error::BadInput(
+            "refine_from: the initial model needs at least one stable mode and finite numbers"
+                .into(),
+        ));
+    }
+    let prep = Prepared::with_weights(frf, opts, Some(weights))?;
+    let start = prep.scale_modes(&initial.modes);
+    let sol = varpro::refine(&prep, &start, opts.lm_iterations.max(1))
+        .or_else(|| varpro::solve_linear(&prep, &start))
+        .ok_or_else(|| {
+            Error::Numerical(
+                "refine_from: the numerator least squares is singular; give weight to more lines"
+                    .into(),
+            )
+        })?;
+    finish(&prep, &sol)
+}
+
+/// Starting poles (scaled, one per pair): the physical ones first, then lightly damped
+/// pairs spread linearly over the band gaps.
+fn start_poles(prep: &Prepared, physical: &[Complex64], n: usize) -> Vec<Complex64> {
+    let mut poles: Vec<Complex64> = physical.iter().take(n).copied().collect();
+    let extra = n - poles.len();
+    if extra > 0 {
+        let lo = prep.s[0].im.max(1e-3);
+        let hi = prep.s[prep.n_lines() - 1].im;
+        for i in 0..extra {
+            let w = lo + (hi - lo) * (i as f64 + 0.5) / extra as f64;
+            poles.push(Complex64::new(-0.01 * w, w));
+        }
+    }
+    poles
+}
+
+/// VF iterations at a fixed order, then the numerators in the modal basis.
+fn fit_order(
+    prep: &Prepared,
+    mut poles: Vec<Complex64>,
+    opts: &FitOptions,
+    report: &mut String,
+) -> Result<Solved> {
+    let its = vf::relocate(prep, &mut poles, opts.sk_iterations.max(1));
+    let modes = vf::poles_to_modes(&poles);
+    let sol = varpro::solve_linear(prep, &modes).ok_or_else(|| {
+        Error::Numerical(
+            "the numerator least squares is singular: too few usable lines for the order".into(),
+        )
+    })?;
+    let _ = writeln!(
+        report,
+        "order {} pairs: {} SK/VF iterations, relative weighted error {:.3e}, residual lag-1 correlation {:.2}",
+        modes.len(),
+        its,
+        (sol.cost / prep.energy()).sqrt(),
+        varpro::lag_one_correlation(prep, &sol)
+    );
+    Ok(sol)
+}
+
+/// Weighted noise energy implied by the coherence: Σ w² |F|² (1−γ²)/γ².
+fn noise_floor(prep: &Prepared) -> Option<f64> {
+    let mut acc = 0.0;
+    let mut any = false;
+    for (ci, ch) in prep.band.channels.iter().enumerate() {
+        let Some(g) = &ch.coherence else { continue };
+        any = true;
+        for (k, &g) in g.iter().enumerate() {
+            let w = prep.w[ci][k];
+            if w > 0.0 {
+                let g = g.clamp(1e-6, 1.0);
+                acc += w * w * prep.h[ci][k].norm_sqr() * (1.0 - g) / g;
+            }
+        }
+    }
+    any.then_some(acc)
+}
+
+/// The automatic order rule of the module docs.
+fn auto_order(
+    prep: &Prepared,
+    physical: &[Complex64],
+    opts: &FitOptions,
+    report: &mut String,
+) -> Result<Solved> {
+    let energy = prep.energy();
+    let noise = noise_floor(prep);
+    let max_modes = opts.max_modes.max(1);
+    let n0 = physical.len().clamp(1, max_modes);
+    let rel = |s: &Solved| (s.cost / energy).sqrt();
+    let white = |s: &Solved| varpro::lag_one_correlation(prep, s) < opts.white_residual;
+    let done = |s: &Solved| {
+        rel(s) <= opts.target_residual || noise.is_some_and(|nf| s.cost <= nf) || white(s)
+    };
+    let mut best = fit_order(prep, start_poles(prep, physical, n0), opts, report)?;
+    // Prune diagram modes that only fit noise: drop the weakest while the residual
+    // stays white.
+    while best.modes.len() > 1 && white(&best) && rel(&best) > opts.target_residual {
+        let contrib = varpro::mode_contributions(prep, &best);
+        let weakest = (0..contrib.len())
+            .min_by(|&a, &b| contrib[a].total_cmp(&contrib[b]))
+            .unwrap_or(0);
+        let mut modes = best.modes.clone();
+        modes.remove(weakest);
+        let cand = fit_order(prep, vf::modes_to_poles(&modes), opts, report)?;
+        if white(&cand) {
+            best = cand;
+        } else {
+            break;
+        }
+    }
+    let mut current = best.clone();
+    while !done(&best) && current.modes.len() < max_modes {
+        let next = add_pair(prep, &current, opts, report)?;
+        let gain = 1.0 - rel(&next) / rel(&best);
+        if gain >= opts.min_improvement {
+            best = next.clone();
+            current = next;
+            continue;
+        }
+        // one pair of look-ahead
+        if next.modes.len() >= max_modes {
+            break;
+        }
+        let next2 = add_pair(prep, &next, opts, report)?;
+        let gain2 = 1.0 - rel(&next2) / rel(&best);
+        if gain2 >= 2.0 * opts.min_improvement {
+            best = next2.clone();
+            current = next2;
+        } else {
+            break;
+        }
+    }
+    if let Some(nf) = noise {
+        let _ = writeln!(
+            report,
+            "automatic order: {} modes (noise floor from coherence {:.3e}, residual {:.3e})",
+            best.modes.len(),
+            (nf / energy).sqrt(),
+            rel(&best)
+        );
+    } else {
+        let _ = writeln!(report, "automatic order: {} modes", best.modes.len());
+    }
+    Ok(best)
+}
+
+/// The fit with one more pole pair, placed at the line of largest weighted residual.
+fn add_pair(
+    prep: &Prepared,
+    current: &Solved,
+    opts: &FitOptions,
+    report: &mut String,
+) -> Result<Solved> {
+    let res = varpro::residual_per_line(prep, current);
+    // smooth over ±2 lines so a single noisy line does not attract the pole
+    let n = res.len();
+    let k = (0..n)
+        .max_by(|&a, &b| {
+            let sa: f64 = res[a.saturating_sub(2)..(a + 3).min(n)].iter().sum();
+            let sb: f64 = res[b.saturating_sub(2)..(b + 3).min(n)].iter().sum();
+            sa.total_cmp(&sb)
+        })
+        .unwrap_or(0);
+    let w = prep.s[k].im.max(1e-3);
+    let mut poles = vf::modes_to_poles(&current.modes);
+    poles.push(Complex64::new(-0.01 * w, w));
+    fit_order(prep, poles, opts, report)
+}
+
+/// Converts to original units, checks finiteness and stability.
+fn finish(prep: &Prepared, sol: &Solved) -> Result<ModalModel> {
+    let model = prep.to_model(&sol.modes, &sol.coefs);
+    if !model.is_valid() {
+        return Err(Error::Numerical(
+            "the fitted model is not finite or not stable; narrow the band or fix the order"
+                .into(),
+        ));
+    }
+    Ok(model)
+}
+
+/// Paper eq. 5 per channel over the lines with positive weight.
+fn fit_percentages(prep: &Prepared, model: &ModalModel) -> Vec<(Channel, f64)> {
+    prep.band
+        .channels
+        .iter()
+        .enumerate()
+        .map(|(ci, ch)| {
+            let idx: Vec<usize> = (0..prep.n_lines())
+                .filter(|&k| prep.w[ci][k] > 0.0)
+                .collect();
+            let truth: Vec<Complex64> = idx.iter().map(|&k| ch.h[k]).collect();
+            let est: Vec<Complex64> = idx
+                .iter()
+                .map(|&k| model.eval_hz(ci, prep.band.freqs_hz[k]))
+                .collect();
+            (ch.channel, fit_percent(&truth, &est))
+        })
+        .collect()
+}

@@ -1,0 +1,302 @@
+//! Nonlinear refinement of the true weighted error `Σ |W (H − F)|²` by
+//! Levenberg–Marquardt over the modes `(ln ω, ln ζ)` with the linear numerators
+//! eliminated (variable projection, Kaufman's Jacobian).
+//!
+//! For fixed modes every channel is a linear least-squares problem in the modal basis
+//! `s/den_k(s)`, `1/den_k(s)`, `1`; its residual `r = (I − QQᵀ) y` depends on the modes
+//! only. The Jacobian of `r` with respect to one mode parameter is approximated by
+//! `−(I − QQᵀ) (∂A/∂θ) x`, which keeps the exact Gauss–Newton direction at the optimum
+//! and needs one QR per channel per iteration.
+
+use super::data::Prepared;
+use super::linalg::lstsq;
+use crate::model::Mode;
+use nalgebra::{DMatrix, DVector};
+use num_complex::Complex64;
+
+/// Result of a linear solve or a refinement.
+#[derive(Debug, Clone)]
+pub(crate) struct Solved {
+    /// Modes in scaled units.
+    pub modes: Vec<Mode>,
+    /// Per channel `[b1_0, b0_0, …, d]` in the scaled basis.
+    pub coefs: Vec<Vec<f64>>,
+    /// Weighted squared error Σ w² |h − model|² (scaled units).
+    pub cost: f64,
+    /// Levenberg–Marquardt iterations taken.
+    pub iterations: usize,
+}
+
+/// The real-form design matrix and weighted data of one channel (rows of lines with
+/// positive weight: real parts then imaginary parts interleaved).
+fn design(p: &Prepared, ci: usize, modes: &[Mode]) -> (DMatrix<f64>, DVector<f64>, Vec<usize>) {
+    let lines: Vec<usize> = (0..p.n_lines()).filter(|&k| p.w[ci][k] > 0.0).collect();
+    let m = 2 * modes.len() + 1;
+    let mut a = DMatrix::<f64>::zeros(2 * lines.len(), m);
+    let mut y = DVector::<f64>::zeros(2 * lines.len());
+    for (i, &k) in lines.iter().enumerate() {
+        let w = p.w[ci][k];
+        let s = p.s[k];
+        for (j, md) in modes.iter().enumerate() {
+            let inv = w / md.den(s);
+            let v1 = s * inv;
+            a[(2 * i, 2 * j)] = v1.re;
+            a[(2 * i + 1, 2 * j)] = v1.im;
+            a[(2 * i, 2 * j + 1)] = inv.re;
+            a[(2 * i + 1, 2 * j + 1)] = inv.im;
+        }
+        a[(2 * i, m - 1)] = w;
+        let hw = p.h[ci][k] * w;
+        y[2 * i] = hw.re;
+        y[2 * i + 1] = hw.im;
+    }
+    (a, y, lines)
+}
+
+/// Numerators for fixed modes (linear least squares per channel) and the cost.
+pub(crate) fn solve_linear(p: &Prepared, modes: &[Mode]) -> Option<Solved> {
+    let mut coefs = Vec::with_capacity(p.channels.len());
+    let mut cost = 0.0;
+    for ci in 0..p.channels.len() {
+        let (a, y, _) = design(p, ci, modes);
+        if a.nrows() == 0 {
+            coefs.push(vec![0.0; a.ncols()]);
+            continue;
+        }
+        let x = lstsq(&a, &y)?;
+        cost += (&y - &a * &x).norm_squared();
+        coefs.push(x.iter().copied().collect());
+    }
+    Some(Solved {
+        modes: modes.to_vec(),
+        coefs,
+        cost,
+        iterations: 0,
+    })
+}
+
+/// Cost, coefficients, and the Gauss–Newton system `(JᵀJ, Jᵀr)` at `modes`.
+fn evaluate(p: &Prepared, modes: &[Mode]) -> Option<(Solved, DMatrix<f64>, DVector<f64>)> {
+    let n = modes.len();
+    let np = 2 * n;
+    let mut jtj = DMatrix::<f64>::zeros(np, np);
+    let mut jtr = DVector::<f64>::zeros(np);
+    let mut coefs = Vec::with_capacity(p.channels.len());
+    let mut cost = 0.0;
+    for ci in 0..p.channels.len() {
+        let (a, y, lines) = design(p, ci, modes);
+        let m = a.ncols();
+        if a.nrows() < m {
+            coefs.push(vec![0.0; m]);
+            continue;
+        }
+        // column scaling for the QR, undone on x
+        let mut asc = a;
+        let mut cs = vec![1.0; m];
+        for (j, c) in cs.iter_mut().enumerate() {
+            let nrm = asc.column(j).norm();
+            if nrm > 0.0 && nrm.is_finite() {
+                *c = 1.0 / nrm;
+                asc.column_mut(j).scale_mut(*c);
+            }
+        }
+        let qr = asc.qr();
+        let q = qr.q();
+        let r = qr.r();
+        let qty = q.tr_mul(&y);
+        let xs = r.solve_upper_triangular(&qty)?;
+        let x: Vec<f64> = xs.iter().zip(&cs).map(|(v, c)| v * c).collect();
+        if x.iter().any(|v| !v.is_finite()) {
+            return None;
+        }
+        let res = &y - &q * &qty;
+        cost += res.norm_squared();
+        // V = (∂A/∂θ) x, two columns per mode
+        let mut v = DMatrix::<f64>::zeros(y.len(), np);
+        for (i, &k) in lines.iter().enumerate() {
+            let w = p.w[ci][k];
+            let s = p.s[k];
+            for (j, md) in modes.iter().enumerate() {
+                let den = md.den(s);
+                let num = s * x[2 * j] + x[2 * j + 1];
+                let g = -(num * w) / (den * den);
+                // ∂den/∂ln ω = ω (2ζ s + 2ω), ∂den/∂ln ζ = 2ζω s
+                let d_w = g * ((s * (2.0 * md.zeta) + 2.0 * md.wn) * md.wn);
+                let d_z = g * (s * (2.0 * md.zeta * md.wn));
+                v[(2 * i, 2 * j)] = d_w.re;
+                v[(2 * i + 1, 2 * j)] = d_w.im;
+                v[(2 * i, 2 * j + 1)] = d_z.re;
+                v[(2 * i + 1, 2 * j + 1)] = d_z.im;
+            }
+        }
+        let qtv = q.tr_mul(&v);
+        let pv = &v - &q * qtv;
+        jtj += pv.tr_mul(&pv);
+        // J = -PV, Jᵀr = -(PV)ᵀ r
+        jtr -= pv.tr_mul(&res);
+        coefs.push(x);
+    }
+    Some((
+        Solved {
+            modes: modes.to_vec(),
+            coefs,
+            cost,
+            iterations: 0,
+        },
+        jtj,
+        jtr,
+    ))
+}
+
+const LN_ZETA_MIN: f64 = -11.5; // ζ ≥ 1e-5
+const LN_ZETA_MAX: f64 = 3.0; // ζ ≤ 20
+const LN_W_MIN: f64 = -9.2; // ω ≥ 1e-4 × band top
+const LN_W_MAX: f64 = 4.6; // ω ≤ 100 × band top
+
+fn to_theta(modes: &[Mode]) -> Vec<f64> {
+    modes
+        .iter()
+        .flat_map(|m| [m.wn.ln(), m.zeta.ln()])
+        .collect()
+}
+
+fn from_theta(t: &[f64]) -> Vec<Mode> {
+    t.chunks(2)
+        .map(|c| Mode {
+            wn: c[0].clamp(LN_W_MIN, LN_W_MAX).exp(),
+            zeta: c[1].clamp(LN_ZETA_MIN, LN_ZETA_MAX).exp(),
+        })
+        .collect()
+}
+
+/// Levenberg–Marquardt from `start` (stable modes, scaled units). Never returns a
+/// worse cost than the linear solve at `start`.
+pub(crate) fn refine(p: &Prepared, start: &[Mode], max_iter: usize) -> Option<Solved> {
+    let start: Vec<Mode> = start
+        .iter()
+        .map(|m| Mode {
+            wn: m.wn.clamp(LN_W_MIN.exp(), LN_W_MAX.exp()),
+            zeta: m.zeta.clamp(LN_ZETA_MIN.exp(), LN_ZETA_MAX.exp()),
+        })
+        .collect();
+    let mut theta = to_theta(&start);
+    let (mut best, mut jtj, mut jtr) = evaluate(p, &start)?;
+    let mut lambda = 1e-3;
+    let np = theta.len();
+    let mut it = 0;
+    while it < max_iter && np > 0 {
+        it += 1;
+        let mut improved = false;
+        for _ in 0..12 {
+            let mut lhs = jtj.clone();
+            for i in 0..np {
+                lhs[(i, i)] += lambda * jtj[(i, i)].max(1e-12 * (1.0 + best.cost));
+            }
+            let rhs = -&jtr;
+            let delta = match lhs.clone().cholesky() {
+                Some(c) => c.solve(&rhs),
+                None => match lhs.lu().solve(&rhs) {
+                    Some(d) => d,
+                    None => {
+                        lambda *= 10.0;
+                        continue;
+                    }
+                },
+            };
+            // limit a step to a factor e^0.5 per parameter
+            let mx = delta.amax();
+            let delta = if mx > 0.5 { delta * (0.5 / mx) } else { delta };
+            let trial: Vec<f64> = theta.iter().zip(delta.iter()).map(|(a, b)| a + b).collect();
+            let modes = from_theta(&trial);
+            match evaluate(p, &modes) {
+                Some((sol, j2, r2)) if sol.cost < best.cost => {
+                    let rel = (best.cost - sol.cost) / best.cost.max(1e-300);
+                    theta = to_theta(&modes);
+                    best = sol;
+                    jtj = j2;
+                    jtr = r2;
+                    lambda = (lambda / 3.0).max(1e-9);
+                    improved = rel > 1e-10;
+                    break;
+                }
+                _ => lambda *= 4.0,
+            }
+        }
+        if !improved {
+            break;
+        }
+    }
+    best.iterations = it;
+    Some(best)
+}
+
+/// Weighted residual energy per line, summed over channels (scaled units).
+pub(crate) fn residual_per_line(p: &Prepared, sol: &Solved) -> Vec<f64> {
+    let res = residuals(p, sol);
+    (0..p.n_lines())
+        .map(|k| res.iter().map(|r| r[k].norm_sqr()).sum())
+        .collect()
+}
+
+/// Weighted residual per channel and line (scaled units).
+pub(crate) fn residuals(p: &Prepared, sol: &Solved) -> Vec<Vec<Complex64>> {
+    let n = sol.modes.len();
+    sol.coefs
+        .iter()
+        .enumerate()
+        .map(|(ci, x)| {
+            (0..p.n_lines())
+                .map(|k| {
+                    let s = p.s[k];
+                    let mut hm = Complex64::new(x[2 * n], 0.0);
+                    for (j, m) in sol.modes.iter().enumerate() {
+                        hm += (s * x[2 * j] + x[2 * j + 1]) / m.den(s);
+                    }
+                    (p.h[ci][k] - hm) * p.w[ci][k]
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// Lag-one correlation of the weighted residual along frequency, pooled over channels:
+/// `Re Σ r_k r̄_{k+1} / Σ |r_k|²` over neighbouring usable lines. About 0 when the
+/// residual is measurement noise, near 1 when it is a smooth model error (a missing
+/// mode).
+pub(crate) fn lag_one_correlation(p: &Prepared, sol: &Solved) -> f64 {
+    let res = residuals(p, sol);
+    let (mut num, mut den) = (0.0, 0.0);
+    for (ci, r) in res.iter().enumerate() {
+        for k in 0..r.len() {
+            if p.w[ci][k] == 0.0 {
+                continue;
+            }
+            den += r[k].norm_sqr();
+            if k + 1 < r.len() && p.w[ci][k + 1] > 0.0 {
+                num += (r[k] * r[k + 1].conj()).re;
+            }
+        }
+    }
+    if den > 0.0 {
+        num / den
+    } else {
+        0.0
+    }
+}
+
+/// Weighted size of each mode's contribution Σ_c Σ_k w² |term|².
+pub(crate) fn mode_contributions(p: &Prepared, sol: &Solved) -> Vec<f64> {
+    (0..sol.modes.len())
+        .map(|j| {
+            let m = sol.modes[j];
+            let mut acc = 0.0;
+            for (ci, x) in sol.coefs.iter().enumerate() {
+                for k in 0..p.n_lines() {
+                    let s = p.s[k];
+                    acc += ((s * x[2 * j] + x[2 * j + 1]) / m.den(s) * p.w[ci][k]).norm_sqr();
+                }
+            }
+            acc
+        })
+        .collect()
+}

@@ -1,0 +1,110 @@
+//! Helpers shared by the `fit_*` integration tests: data paths, seeded noise,
+//! .npy and complex-text readers, a textbook H1 estimate.
+#![allow(dead_code)]
+
+use num_complex::Complex64;
+use rand::rngs::StdRng;
+use rand::{Rng, SeedableRng};
+use std::path::PathBuf;
+
+/// The shared data folder: the final layout first, then `MTWIN_SHARED`, then /work/shared.
+pub fn data_dir() -> PathBuf {
+    let first = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data"));
+    if first.is_dir() {
+        return first;
+    }
+    if let Ok(p) = std::env::var("MTWIN_SHARED") {
+        let p = PathBuf::from(p).join("data");
+        if p.is_dir() {
+            return p;
+        }
+    }
+    PathBuf::from("/work/shared/data")
+}
+
+/// Adds complex Gaussian noise of relative RMS `rel` (per line, relative to |h|).
+pub fn add_noise(h: &[Complex64], rel: f64, seed: u64) -> Vec<Complex64> {
+    let mut rng = StdRng::seed_from_u64(seed);
+    h.iter()
+        .map(|v| {
+            let (a, b) = gauss_pair(&mut rng);
+            v + Complex64::new(a, b) * (v.norm() * rel / std::f64::consts::SQRT_2)
+        })
+        .collect()
+}
+
+/// Two independent standard normal numbers (Box–Muller).
+pub fn gauss_pair(rng: &mut StdRng) -> (f64, f64) {
+    let u1: f64 = rng.gen_range(f64::MIN_POSITIVE..1.0);
+    let u2: f64 = rng.gen::<f64>();
+    let r = (-2.0 * u1.ln()).sqrt();
+    let t = 2.0 * std::f64::consts::PI * u2;
+    (r * t.cos(), r * t.sin())
+}
+
+/// Reads a little-endian float64 C-order .npy file; returns (shape, data).
+pub fn read_npy(path: &std::path::Path) -> (Vec<usize>, Vec<f64>) {
+    let bytes = std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    assert_eq!(&bytes[..6], b"\x93NUMPY", "not a .npy file");
+    let major = bytes[6];
+    let (hlen, start) = if major == 1 {
+        (u16::from_le_bytes([bytes[8], bytes[9]]) as usize, 10)
+    } else {
+        (
+            u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]) as usize,
+            12,
+        )
+    };
+    let header = std::str::from_utf8(&bytes[start..start + hlen]).unwrap();
+    assert!(header.contains("'descr': '<f8'"), "header {header}");
+    assert!(header.contains("'fortran_order': False"), "header {header}");
+    let sh = header.split("'shape': (").nth(1).unwrap();
+    let sh = &sh[..sh.find(')').unwrap()];
+    let shape: Vec<usize> = sh
+        .split(',')
+        .filter(|t| !t.trim().is_empty())
+        .map(|t| t.trim().parse().unwrap())
+        .collect();
+    let body = &bytes[start + hlen..];
+    let n: usize = shape.iter().product();
+    assert_eq!(body.len(), 8 * n, "body size");
+    let data = body
+        .chunks_exact(8)
+        .map(|c| f64::from_le_bytes(c.try_into().unwrap()))
+        .collect();
+    (shape, data)
+}
+
+/// Reads one complex per line written like `(a+bj)`.
+pub fn read_complex_txt(path: &std::path::Path) -> Vec<Complex64> {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    text.lines()
+        .filter(|l| !l.trim().is_empty())
+        .map(|l| {
+            let t = l.trim().trim_start_matches('(').trim_end_matches(')');
+            let t = t.trim_end_matches('j');
+            // split at the sign of the imaginary part (not an exponent sign)
+            let b = t.as_bytes();
+            let mut cut = None;
+            for i in (1..b.len()).rev() {
+                if (b[i] == b'+' || b[i] == b'-') && b[i - 1] != b'e' && b[i - 1] != b'E' {
+                    cut = Some(i);
+                    break;
+                }
+            }
+            let i = cut.unwrap_or_else(|| panic!("bad complex {l}"));
+            Complex64::new(t[..i].parse().unwrap(), t[i..].parse().unwrap())
+        })
+        .collect()
+}
+
+/// Fit (paper eq. 5) of `model` channel `ci` against `truth` on `freqs`.
+pub fn fit_vs(
+    model: &identify::model::ModalModel,
+    ci: usize,
+    freqs: &[f64],
+    truth: &[Complex64],
+) -> f64 {
+    let est: Vec<Complex64> = freqs.iter().map(|&f| model.eval_hz(ci, f)).collect();
+    identify::frf::fit_percent(truth, &est)
+}
