@@ -34,6 +34,7 @@
 
 pub mod atomic;
 pub mod axis;
+pub mod campaign;
 pub mod diagnose;
 pub mod error;
 pub mod extended;
@@ -45,6 +46,7 @@ pub mod model;
 pub mod operating;
 pub mod rational_fit;
 pub mod read;
+pub mod refit;
 pub mod simulate;
 pub mod spectra;
 pub mod stabilization;

@@ -129,6 +129,19 @@ impl Default for FitOptions {
     }
 }
 
+/// The amplitude weights `W` the fit applies to `frf` under `opts`, per channel per line
+/// of the full grid (zero outside the band and below the coherence limit).
+pub fn weights(frf: &Frf, opts: &FitOptions) -> Vec<Vec<f64>> {
+    let custom = match &opts.weighting {
+        Weighting::Custom(w) if w.len() == frf.channels.len() => Some(w.as_slice()),
+        _ => None,
+    };
+    let band = opts
+        .band_hz
+        .unwrap_or((f64::NEG_INFINITY, f64::INFINITY));
+    data::full_weights(frf, opts, custom, band)
+}
+
 /// Outcome of [`fit_frf`].
 #[derive(Debug, Clone)]
 pub struct FitResult {

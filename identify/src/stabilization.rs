@@ -105,6 +105,11 @@ impl StabilizationDiagram {
     pub fn n_physical(&self) -> usize {
         self.physical.len()
     }
+
+    /// Natural frequencies (Hz) of the physical modes, ascending.
+    pub fn stable_freqs_hz(&self) -> Vec<f64> {
+        self.physical.iter().map(|m| m.f_hz).collect()
+    }
 }
 
 /// Roots of a real polynomial, `coeffs[0]` the coefficient of the highest power

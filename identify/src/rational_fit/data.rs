@@ -71,34 +71,7 @@ impl Prepared {
                 "band {lo}..{hi} Hz is empty: give the lower edge first"
             )));
         }
-        // weights on the full grid
-        let mut w_full: Vec<Vec<f64>> = Vec::with_capacity(frf.channels.len());
-        for (ci, ch) in frf.channels.iter().enumerate() {
-            let mut w = match (custom, &opts.weighting, &ch.coherence) {
-                (Some(cw), _, _) => cw[ci].clone(),
-                (None, Weighting::Coherence, Some(g)) => g
-                    .iter()
-                    .map(|&g| {
-                        let g = g.clamp(0.0, COH_CLIP);
-                        (g / (1.0 - g) * (1.0 - COH_CLIP) / COH_CLIP).sqrt()
-                    })
-                    .collect(),
-                _ => vec![1.0; nf],
-            };
-            if let Some(g) = &ch.coherence {
-                for (w, g) in w.iter_mut().zip(g) {
-                    if *g < opts.min_coherence || !g.is_finite() {
-                        *w = 0.0;
-                    }
-                }
-            }
-            for (k, f) in frf.freqs_hz.iter().enumerate() {
-                if *f < lo || *f > hi {
-                    w[k] = 0.0;
-                }
-            }
-            w_full.push(w);
-        }
+        let w_full = full_weights(frf, opts, custom, (lo, hi));
         let keep: Vec<usize> = (0..nf)
             .filter(|&k| w_full.iter().any(|w| w[k] > 0.0))
             .collect();
@@ -273,4 +246,44 @@ fn validate(frf: &Frf) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// Amplitude weight per channel per line on the full grid of `frf`: `custom` when given,
+/// else from `opts.weighting`; zero below `opts.min_coherence` and outside `band`.
+pub(crate) fn full_weights(
+    frf: &Frf,
+    opts: &FitOptions,
+    custom: Option<&[Vec<f64>]>,
+    band: (f64, f64),
+) -> Vec<Vec<f64>> {
+    let nf = frf.freqs_hz.len();
+    let (lo, hi) = band;
+    let mut w_full: Vec<Vec<f64>> = Vec::with_capacity(frf.channels.len());
+    for (ci, ch) in frf.channels.iter().enumerate() {
+        let mut w = match (custom, &opts.weighting, &ch.coherence) {
+            (Some(cw), _, _) => cw[ci].clone(),
+            (None, Weighting::Coherence, Some(g)) => g
+                .iter()
+                .map(|&g| {
+                    let g = g.clamp(0.0, COH_CLIP);
+                    (g / (1.0 - g) * (1.0 - COH_CLIP) / COH_CLIP).sqrt()
+                })
+                .collect(),
+            _ => vec![1.0; nf],
+        };
+        if let Some(g) = &ch.coherence {
+            for (w, g) in w.iter_mut().zip(g) {
+                if *g < opts.min_coherence || !g.is_finite() {
+                    *w = 0.0;
+                }
+            }
+        }
+        for (k, f) in frf.freqs_hz.iter().enumerate() {
+            if *f < lo || *f > hi {
+                w[k] = 0.0;
+            }
+        }
+        w_full.push(w);
+    }
+    w_full
 }
