@@ -76,7 +76,9 @@ pub fn plot(
             .margin(8)
             .x_label_area_size(36)
             .y_label_area_size(70);
-        let draw = |chart: &mut ChartContext<'_, SVGBackend<'_>, _>| {
+        macro_rules! draw {
+            ($chart:expr) => {{
+                let chart = &mut $chart;
             for s in series {
                 let pts: Vec<(f64, f64)> =
                     s.x.iter()
@@ -102,7 +104,8 @@ pub fn plot(
                         });
                 }
             }
-        };
+        }};
+        }
         match yscale {
             Scale::Log => {
                 let Ok(mut chart) =
@@ -116,7 +119,7 @@ pub fn plot(
                     .y_desc(ylabel)
                     .y_label_formatter(&|v| format!("{v:.1e}"))
                     .draw();
-                draw(&mut chart);
+                draw!(chart);
                 let _ = chart
                     .configure_series_labels()
                     .background_style(WHITE.mix(0.8))
@@ -135,7 +138,7 @@ pub fn plot(
                     .y_desc(ylabel)
                     .y_label_formatter(&|v| format!("{v:.2e}"))
                     .draw();
-                draw(&mut chart);
+                draw!(chart);
                 let _ = chart
                     .configure_series_labels()
                     .background_style(WHITE.mix(0.8))

@@ -1,1 +1,3 @@
-//! FMI 2.0 co-simulation slave (work in progress).
+//! FMI 2.0 co-simulation slave evaluating an mtwin twin (work in progress).
+
+pub mod export;
