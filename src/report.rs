@@ -79,32 +79,32 @@ pub fn plot(
         macro_rules! draw {
             ($chart:expr) => {{
                 let chart = &mut $chart;
-            for s in series {
-                let pts: Vec<(f64, f64)> =
-                    s.x.iter()
-                        .zip(s.y)
-                        .filter(|(x, y)| x.is_finite() && ok(**y))
-                        .map(|(x, y)| (*x, *y))
-                        .collect();
-                let c = color(s.color);
-                if s.points {
-                    let _ = chart
-                        .draw_series(pts.iter().map(|p| Circle::new(*p, 2, c.filled())))
-                        .map(|a| {
-                            a.label(s.label)
-                                .legend(move |(x, y)| Circle::new((x + 10, y), 3, c.filled()))
-                        });
-                } else {
-                    let _ = chart
-                        .draw_series(LineSeries::new(pts, c.stroke_width(1)))
-                        .map(|a| {
-                            a.label(s.label).legend(move |(x, y)| {
-                                PathElement::new(vec![(x, y), (x + 20, y)], c)
-                            })
-                        });
+                for s in series {
+                    let pts: Vec<(f64, f64)> =
+                        s.x.iter()
+                            .zip(s.y)
+                            .filter(|(x, y)| x.is_finite() && ok(**y))
+                            .map(|(x, y)| (*x, *y))
+                            .collect();
+                    let c = color(s.color);
+                    if s.points {
+                        let _ = chart
+                            .draw_series(pts.iter().map(|p| Circle::new(*p, 2, c.filled())))
+                            .map(|a| {
+                                a.label(s.label)
+                                    .legend(move |(x, y)| Circle::new((x + 10, y), 3, c.filled()))
+                            });
+                    } else {
+                        let _ = chart
+                            .draw_series(LineSeries::new(pts, c.stroke_width(1)))
+                            .map(|a| {
+                                a.label(s.label).legend(move |(x, y)| {
+                                    PathElement::new(vec![(x, y), (x + 20, y)], c)
+                                })
+                            });
+                    }
                 }
-            }
-        }};
+            }};
         }
         match yscale {
             Scale::Log => {

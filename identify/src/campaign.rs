@@ -21,7 +21,7 @@ pub struct CampaignOptions {
     pub frf: FrfOptions,
     /// Rational fit (order, band, weighting).
     pub fit: FitOptions,
-    /// Records whose mean positions agree within this distance [m] share a pose.
+    /// Records whose mean positions agree within this distance \[m\] share a pose.
     pub pose_tol_m: f64,
     /// Name written into the twin.
     pub name: String,
@@ -41,7 +41,7 @@ impl Default for CampaignOptions {
 /// Records measured at one pose.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PoseGroup {
-    /// Mean axis position of the records [m].
+    /// Mean axis position of the records \[m\].
     pub pose: [f64; 3],
     /// Indices into the record list.
     pub records: Vec<usize>,
@@ -103,7 +103,8 @@ pub fn weights_for(frf: &Frf, opts: &FitOptions) -> Vec<Vec<f64>> {
 fn band_of(frf: &Frf, opts: &FitOptions) -> (f64, f64) {
     let lo = frf.freqs_hz.first().copied().unwrap_or(0.0);
     let hi = frf.freqs_hz.last().copied().unwrap_or(0.0);
-    opts.band_hz.map_or((lo, hi), |(a, b)| (a.max(lo), b.min(hi)))
+    opts.band_hz
+        .map_or((lo, hi), |(a, b)| (a.max(lo), b.min(hi)))
 }
 
 /// Per-channel fit of `model` against `frf` within `band`.
@@ -169,7 +170,11 @@ pub fn identify_campaign(
     let mut fits: Vec<PoseFit> = fits.into_iter().collect::<Result<_>>()?;
     let mut warnings: Vec<String> = fits
         .iter()
-        .flat_map(|f| f.warnings.iter().map(move |w| format!("pose {:?}: {w}", f.pose)))
+        .flat_map(|f| {
+            f.warnings
+                .iter()
+                .map(move |w| format!("pose {:?}: {w}", f.pose))
+        })
         .collect();
     if fits.len() > 1 {
         warnings.extend(track_modes(&mut fits, opts)?);

@@ -90,7 +90,7 @@ pub struct CandidateScore {
     pub cause: Cause,
     /// χ of the extended twin on the building part's FRF points.
     pub chi: f64,
-    /// Held-out time fit of the extended twin [%].
+    /// Held-out time fit of the extended twin \[%\].
     pub fit_holdout_pct: f64,
     /// The cause's numbers.
     pub details: Map<String, Value>,
@@ -105,9 +105,9 @@ pub struct Diagnosis {
     pub summary: String,
     /// Cause-specific numbers (SPEC table) and `holdout`.
     pub details: Map<String, Value>,
-    /// Held-out fit of the original twin [%].
+    /// Held-out fit of the original twin \[%\].
     pub fit_before_pct: f64,
-    /// Held-out fit of the extended twin [%].
+    /// Held-out fit of the extended twin \[%\].
     pub fit_after_pct: f64,
     /// File name of the extended twin (in the output directory).
     pub extended_twin: String,
@@ -205,7 +205,7 @@ pub fn split(ts: &TimeSeries, fraction: f64) -> Split {
 /// FRF evidence from data: per channel the H1 points, coherence and standard errors.
 #[derive(Debug, Clone)]
 pub struct Evidence {
-    /// Frequency lines [Hz].
+    /// Frequency lines \[Hz\].
     pub freqs_hz: Vec<f64>,
     /// Per channel: H1, coherence.
     pub channels: Vec<(Channel, Vec<Complex64>, Vec<f64>)>,
@@ -422,7 +422,7 @@ fn band_of(twin: &Twin) -> (f64, f64) {
     (lo, hi)
 }
 
-/// Held-out time fit [%] of `twin` on the splits (all response axes pooled).
+/// Held-out time fit \[%\] of `twin` on the splits (all response axes pooled).
 pub fn holdout_fit(twin: &Twin, splits: &[Split]) -> Result<f64> {
     let mut meas = Vec::new();
     let mut sim = Vec::new();

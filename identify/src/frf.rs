@@ -9,7 +9,7 @@ use serde::{Deserialize, Serialize};
 pub struct FrfChannel {
     /// Which response per which force.
     pub channel: Channel,
-    /// Complex receptance at each frequency line [m/N].
+    /// Complex receptance at each frequency line \[m/N\].
     pub h: Vec<Complex64>,
     /// Coherence γ² in [0, 1] at each line, when estimated from data.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -19,7 +19,7 @@ pub struct FrfChannel {
 /// A set of FRF channels on one common, strictly increasing frequency grid.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
 pub struct Frf {
-    /// Frequency lines [Hz], strictly increasing.
+    /// Frequency lines \[Hz\], strictly increasing.
     pub freqs_hz: Vec<f64>,
     /// The channels, each with one value per frequency line.
     pub channels: Vec<FrfChannel>,
@@ -31,7 +31,7 @@ impl Frf {
         self.channels.iter().find(|ch| ch.channel == c)
     }
 
-    /// Angular frequencies [rad/s] of the grid.
+    /// Angular frequencies \[rad/s\] of the grid.
     pub fn omegas(&self) -> Vec<f64> {
         self.freqs_hz
             .iter()

@@ -70,7 +70,7 @@ pub enum Method {
     Rbf,
 }
 
-/// Tolerance [m] under which two coordinates count as the same grid value.
+/// Tolerance \[m\] under which two coordinates count as the same grid value.
 pub const GRID_TOL_M: f64 = 1e-4;
 
 /// Interpolation along one axis: nodes and the linear map from node values to

@@ -19,7 +19,7 @@ use std::f64::consts::PI;
 pub struct Points {
     /// The channel.
     pub channel: Channel,
-    /// Frequencies [Hz].
+    /// Frequencies \[Hz\].
     pub freqs_hz: Vec<f64>,
     /// Measured receptance.
     pub h: Vec<Complex64>,

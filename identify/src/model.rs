@@ -22,14 +22,14 @@ use std::f64::consts::PI;
 /// One mode: a second-order section `s² + 2ζω s + ω²` common to all channels.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Mode {
-    /// Undamped natural angular frequency ω [rad/s].
+    /// Undamped natural angular frequency ω \[rad/s\].
     pub wn: f64,
     /// Damping ratio ζ (> 0 for a stable mode; ≥ 1 means two real poles).
     pub zeta: f64,
 }
 
 impl Mode {
-    /// Mode from natural frequency [Hz] and damping ratio.
+    /// Mode from natural frequency \[Hz\] and damping ratio.
     pub fn from_hz(f_hz: f64, zeta: f64) -> Self {
         Mode {
             wn: 2.0 * PI * f_hz,
@@ -46,7 +46,7 @@ impl Mode {
         }
     }
 
-    /// Natural frequency [Hz].
+    /// Natural frequency \[Hz\].
     pub fn freq_hz(&self) -> f64 {
         self.wn / (2.0 * PI)
     }
@@ -120,7 +120,7 @@ pub struct ChannelModel {
     pub channel: Channel,
     /// One numerator per mode of the owning [`ModalModel`], same order.
     pub num: Vec<ModeNum>,
-    /// Residual compliance of out-of-band modes [m/N] (direct feedthrough).
+    /// Residual compliance of out-of-band modes \[m/N\] (direct feedthrough).
     pub d: f64,
 }
 
@@ -164,7 +164,7 @@ impl ModalModel {
         self.eval_s(ci, Complex64::new(0.0, 2.0 * PI * f_hz))
     }
 
-    /// The model's FRF (all channels) on a frequency grid [Hz].
+    /// The model's FRF (all channels) on a frequency grid \[Hz\].
     pub fn frf(&self, freqs_hz: &[f64]) -> Frf {
         Frf {
             freqs_hz: freqs_hz.to_vec(),

@@ -13,7 +13,7 @@ use std::f64::consts::PI;
 /// Cross-spectral FRF estimate of operating records.
 #[derive(Debug, Clone)]
 pub struct OperatingSpectra {
-    /// Frequency lines [Hz] (0 Hz excluded).
+    /// Frequency lines \[Hz\] (0 Hz excluded).
     pub freqs_hz: Vec<f64>,
     /// Force axes used as inputs.
     pub inputs: Vec<Axis>,
@@ -29,7 +29,7 @@ pub struct OperatingSpectra {
     pub psd_in: Vec<(Axis, Vec<f64>)>,
     /// Number of averaged segments.
     pub n_avg: usize,
-    /// Line spacing [Hz].
+    /// Line spacing \[Hz\].
     pub df_hz: f64,
 }
 

@@ -83,7 +83,7 @@ pub enum Weighting {
 pub struct FitOptions {
     /// Number of modes (pole pairs); `None` = automatic (see the module docs).
     pub n_modes: Option<usize>,
-    /// Fitted band [Hz], inclusive; `None` = every line.
+    /// Fitted band \[Hz\], inclusive; `None` = every line.
     pub band_hz: Option<(f64, f64)>,
     /// Line weighting.
     pub weighting: Weighting,
@@ -136,9 +136,7 @@ pub fn weights(frf: &Frf, opts: &FitOptions) -> Vec<Vec<f64>> {
         Weighting::Custom(w) if w.len() == frf.channels.len() => Some(w.as_slice()),
         _ => None,
     };
-    let band = opts
-        .band_hz
-        .unwrap_or((f64::NEG_INFINITY, f64::INFINITY));
+    let band = opts.band_hz.unwrap_or((f64::NEG_INFINITY, f64::INFINITY));
     data::full_weights(frf, opts, custom, band)
 }
 
@@ -147,7 +145,7 @@ pub fn weights(frf: &Frf, opts: &FitOptions) -> Vec<Vec<f64>> {
 pub struct FitResult {
     /// The identified model (modes sorted, stable, finite), in original units.
     pub model: ModalModel,
-    /// Paper eq. 5 fit [%] per channel over the fitted lines (band, weight > 0).
+    /// Paper eq. 5 fit \[%\] per channel over the fitted lines (band, weight > 0).
     pub fit_pct: Vec<(Channel, f64)>,
     /// The stabilization diagram the order came from.
     pub diagram: StabilizationDiagram,
@@ -430,8 +428,7 @@ fn finish(prep: &Prepared, sol: &Solved) -> Result<ModalModel> {
     let model = prep.to_model(&sol.modes, &sol.coefs);
     if !model.is_valid() {
         return Err(Error::Numerical(
-            "the fitted model is not finite or not stable; narrow the band or fix the order"
-                .into(),
+            "the fitted model is not finite or not stable; narrow the band or fix the order".into(),
         ));
     }
     Ok(model)

@@ -67,7 +67,7 @@ pub struct RefitOptions {
     pub min_coherence: f64,
     /// Welch segment length (default: ~0.25 Hz... chosen from the record: 1 s or shorter).
     pub nfft: Option<usize>,
-    /// Length L [m] of the position spread; `None` = half the workspace diagonal;
+    /// Length L \[m\] of the position spread; `None` = half the workspace diagonal;
     /// infinity = the same change everywhere.
     pub spread_length_m: Option<f64>,
     /// Rational-fit options (the paper's method).
@@ -95,9 +95,9 @@ impl Default for RefitOptions {
 pub struct ModeChange {
     /// Index of the tracked mode.
     pub mode: usize,
-    /// Natural frequency before [Hz].
+    /// Natural frequency before \[Hz\].
     pub freq_before_hz: f64,
-    /// Natural frequency after [Hz].
+    /// Natural frequency after \[Hz\].
     pub freq_after_hz: f64,
     /// Damping ratio before.
     pub zeta_before: f64,
@@ -110,17 +110,17 @@ pub struct ModeChange {
 pub struct RefitReport {
     /// Method used.
     pub method: RefitMethod,
-    /// Operating pose (mean axis position of the data) [m].
+    /// Operating pose (mean axis position of the data) \[m\].
     pub pose: [f64; 3],
-    /// Fit [%] of the twin's simulated response to the measured one, before.
+    /// Fit \[%\] of the twin's simulated response to the measured one, before.
     pub drift_fit_pct: f64,
     /// RMS misfit of the operating FRF points in standard errors, before.
     pub drift_chi: f64,
     /// Whether the twin was changed.
     pub updated: bool,
-    /// Fit [%] of the updated twin's simulated response (same data).
+    /// Fit \[%\] of the updated twin's simulated response (same data).
     pub fit_after_pct: f64,
-    /// Lines used [Hz].
+    /// Lines used \[Hz\].
     pub lines_hz: Vec<f64>,
     /// Modes freed (modal method) or all (paper).
     pub modes: Vec<ModeChange>,
@@ -128,9 +128,12 @@ pub struct RefitReport {
     pub pose_weights: Vec<([f64; 3], f64)>,
 }
 
+/// One response axis: the axis, the measured and the simulated samples.
+pub type AxisTrace = (Axis, Vec<f64>, Vec<f64>);
+
 /// Simulated response of a twin for a record, in the record's response quantity, per
 /// response axis present in both (FOH: the force is linear between samples).
-pub fn simulate_record(twin: &Twin, ts: &TimeSeries) -> Result<Vec<(Axis, Vec<f64>, Vec<f64>)>> {
+pub fn simulate_record(twin: &Twin, ts: &TimeSeries) -> Result<Vec<AxisTrace>> {
     let mut ev = TwinEvaluator::new(twin)?;
     let forces = force_rows(ts);
     let y = simulate_twin(&mut ev, &forces, |i| ts.position_at(i), ts.dt, Hold::Foh);
@@ -163,7 +166,7 @@ fn second_derivative(x: &[f64], dt: f64) -> Vec<f64> {
     a
 }
 
-/// Fit [%] of the twin's simulation against the measured responses (all axes pooled).
+/// Fit \[%\] of the twin's simulation against the measured responses (all axes pooled).
 pub fn time_fit(twin: &Twin, records: &[TimeSeries]) -> Result<f64> {
     let mut meas = Vec::new();
     let mut sim = Vec::new();
@@ -243,7 +246,9 @@ fn chi(model: &ModalModel, pts: &[Points]) -> f64 {
     let mut s = 0.0;
     let mut n = 0usize;
     for p in pts {
-        let Some(ci) = model.channel_index(p.channel) else { continue };
+        let Some(ci) = model.channel_index(p.channel) else {
+            continue;
+        };
         for ((f, h), sg) in p.freqs_hz.iter().zip(&p.h).zip(&p.sigma) {
             s += ((model.eval_hz(ci, *f) - h) / sg).norm_sqr();
             n += 2;
@@ -262,7 +267,9 @@ fn excited_modes(model: &ModalModel, pts: &[Points]) -> Vec<usize> {
     for k in 0..model.modes.len() {
         let m = model.modes[k];
         let hit = pts.iter().any(|p| {
-            let Some(ci) = model.channel_index(p.channel) else { return false };
+            let Some(ci) = model.channel_index(p.channel) else {
+                return false;
+            };
             let n = model.channels[ci].num[k];
             p.freqs_hz.iter().any(|f| {
                 let s = Complex64::new(0.0, 2.0 * PI * f);
@@ -289,26 +296,38 @@ pub fn intermediate_frf(
     let mut inserted = vec![false; n];
     for &l in lines {
         let f = sp.freqs_hz[l];
-        let Some(i) = nearest(&frf.freqs_hz, f) else { continue };
+        let Some(i) = nearest(&frf.freqs_hz, f) else {
+            continue;
+        };
         inserted[i] = true;
         for c in &mut frf.channels {
             if let Some((_, h)) = sp.h.iter().find(|(ch, _)| *ch == c.channel) {
                 c.h[i] = h[l];
                 if let Some(g) = &mut c.coherence {
-                    let o = sp.outputs.iter().position(|a| *a == c.channel.output).unwrap_or(0);
+                    let o = sp
+                        .outputs
+                        .iter()
+                        .position(|a| *a == c.channel.output)
+                        .unwrap_or(0);
                     g[i] = sp.coherence[o].1[l];
                 }
             }
         }
     }
     // uncertainty range: 3 half-power bandwidths of the nearest mode (≥ 3 lines)
-    let df = if n > 1 { frf.freqs_hz[1] - frf.freqs_hz[0] } else { 1.0 };
+    let df = if n > 1 {
+        frf.freqs_hz[1] - frf.freqs_hz[0]
+    } else {
+        1.0
+    };
     let range_at = |f: f64| -> f64 {
         let m = model
             .modes
             .iter()
             .min_by(|a, b| (a.freq_hz() - f).abs().total_cmp(&(b.freq_hz() - f).abs()));
-        m.map_or(3.0 * df, |m| (3.0 * 2.0 * m.zeta * m.freq_hz()).max(3.0 * df))
+        m.map_or(3.0 * df, |m| {
+            (3.0 * 2.0 * m.zeta * m.freq_hz()).max(3.0 * df)
+        })
     };
     let ins: Vec<usize> = (0..n).filter(|&i| inserted[i]).collect();
     let mut w = vec![1.0; n];
@@ -329,7 +348,10 @@ pub fn intermediate_frf(
                 continue;
             }
         }
-        let d = d_below.into_iter().chain(d_above).fold(f64::INFINITY, f64::min);
+        let d = d_below
+            .into_iter()
+            .chain(d_above)
+            .fold(f64::INFINITY, f64::min);
         let r = range_at(f);
         if d < r {
             // raised-cosine fade from 0 at the inserted point to 1 at distance r
@@ -360,7 +382,11 @@ fn nearest(grid: &[f64], f: f64) -> Option<usize> {
 }
 
 /// Lifetime refit of `twin` from operating records (forces, responses, axis positions).
-pub fn refit(twin: &Twin, records: &[TimeSeries], opts: &RefitOptions) -> Result<(Twin, RefitReport)> {
+pub fn refit(
+    twin: &Twin,
+    records: &[TimeSeries],
+    opts: &RefitOptions,
+) -> Result<(Twin, RefitReport)> {
     let first = records
         .first()
         .ok_or_else(|| Error::BadInput("no operating data given".into()))?;

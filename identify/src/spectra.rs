@@ -17,7 +17,7 @@
 //!   matrix). Coherence γ² = |Gfy|² / (Gff Gyy).
 //! * **Units.** Acceleration spectra become receptance by dividing by `(jω + σ)²`
 //!   (σ = exponential-window decay, 0 otherwise); displacement is used directly. The
-//!   output is receptance [m/N] on lines `k fs / nfft`, `k ≥ 1` (0 Hz and the Nyquist
+//!   output is receptance \[m/N\] on lines `k fs / nfft`, `k ≥ 1` (0 Hz and the Nyquist
 //!   line are excluded).
 //! * **Excitation** ([`Excitation`]): `Auto` calls a record an impact test when fewer
 //!   than 2 % of its force samples exceed 20 % of the force peak, else continuous.
@@ -169,7 +169,7 @@ impl Default for FrfOptions {
 /// Result of [`estimate_frf`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct FrfEstimate {
-    /// Receptance [m/N] with coherence, 0 Hz excluded.
+    /// Receptance \[m/N\] with coherence, 0 Hz excluded.
     pub frf: Frf,
     /// Things the user should know (dropped records, low coherence, few averages).
     pub warnings: Vec<String>,
@@ -177,7 +177,7 @@ pub struct FrfEstimate {
     pub hits_used: usize,
     /// One line per dropped hit or record, with the reason.
     pub hits_dropped: Vec<String>,
-    /// Decay [1/s] of the exponential window, when one was applied: the estimate equals
+    /// Decay \[1/s\] of the exponential window, when one was applied: the estimate equals
     /// `H(s + σ)`, i.e. every pole is shifted left by σ (damping ratio up by σ / ωₙ).
     pub exp_window_sigma: Option<f64>,
     /// Human description of what was done.

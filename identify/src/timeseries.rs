@@ -7,9 +7,9 @@ use serde::{Deserialize, Serialize};
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum ResponseKind {
-    /// Acceleration `ax, ay, az` [m/s²].
+    /// Acceleration `ax, ay, az` \[m/s²\].
     Acceleration,
-    /// Displacement `dx, dy, dz` [m].
+    /// Displacement `dx, dy, dz` \[m\].
     Displacement,
 }
 
@@ -18,17 +18,17 @@ pub enum ResponseKind {
 pub struct TimeSeries {
     /// Where it came from (file path), for messages and provenance.
     pub source: String,
-    /// Time of the first sample [s].
+    /// Time of the first sample \[s\].
     pub t0: f64,
-    /// Sample period [s] (1 / sample rate), the mean step of the `t` column.
+    /// Sample period \[s\] (1 / sample rate), the mean step of the `t` column.
     pub dt: f64,
-    /// Forces `fx, fy, fz` [N], indexed by [`Axis::index`]; `None` = column absent.
+    /// Forces `fx, fy, fz` \[N\], indexed by [`Axis::index`]; `None` = column absent.
     pub force: [Option<Vec<f64>>; 3],
     /// Responses indexed by axis; see [`TimeSeries::response_kind`].
     pub response: [Option<Vec<f64>>; 3],
     /// Kind of the response columns (`None` when no response column is present).
     pub response_kind: Option<ResponseKind>,
-    /// Axis positions `x, y, z` [m] per sample; `None` = column absent (position 0).
+    /// Axis positions `x, y, z` \[m\] per sample; `None` = column absent (position 0).
     pub position: [Option<Vec<f64>>; 3],
     /// `#` comment lines (without the `#`), free metadata.
     pub comments: Vec<String>,
@@ -51,12 +51,12 @@ impl TimeSeries {
         self.len() == 0
     }
 
-    /// Sample rate [Hz].
+    /// Sample rate \[Hz\].
     pub fn fs(&self) -> f64 {
         1.0 / self.dt
     }
 
-    /// Times of the samples [s].
+    /// Times of the samples \[s\].
     pub fn times(&self) -> Vec<f64> {
         (0..self.len())
             .map(|i| self.t0 + i as f64 * self.dt)

@@ -57,7 +57,7 @@ pub struct OrderInfo {
     pub modes: usize,
     /// True when chosen from the stabilization diagram, false when forced (`--order`).
     pub automatic: bool,
-    /// Stable natural frequencies [Hz] found in the stabilization diagram.
+    /// Stable natural frequencies \[Hz\] found in the stabilization diagram.
     #[serde(default)]
     pub stable_freqs_hz: Vec<f64>,
 }
@@ -65,13 +65,13 @@ pub struct OrderInfo {
 /// The model identified at one measured pose.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct PoseModel {
-    /// Axis positions x, y, z [m].
+    /// Axis positions x, y, z \[m\].
     pub pose: [f64; 3],
     /// The modal model (all channels measured at this pose).
     pub model: ModalModel,
     /// The FRF the model was fitted to (kept for refits).
     pub frf: Frf,
-    /// Band [Hz] the fit used.
+    /// Band \[Hz\] the fit used.
     pub band_hz: [f64; 2],
     /// Fit per channel.
     pub fit: Vec<ChannelFit>,
@@ -80,7 +80,7 @@ pub struct PoseModel {
     /// Data files it came from.
     #[serde(default)]
     pub sources: Vec<String>,
-    /// Damping σ [1/s] an exponential window added to `frf` (the model is corrected
+    /// Damping σ \[1/s\] an exponential window added to `frf` (the model is corrected
     /// for it; the stored FRF is as windowed).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub frf_exp_window_sigma: Option<f64>,
@@ -89,13 +89,13 @@ pub struct PoseModel {
 /// A sinusoidal vibration from outside the machine, added to the response.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Sinusoid {
-    /// Frequency [Hz].
+    /// Frequency \[Hz\].
     pub freq_hz: f64,
     /// Response axis it appears on.
     pub axis: crate::axis::Axis,
-    /// Cosine amplitude [m] (response = a cos(2πft) + b sin(2πft)).
+    /// Cosine amplitude \[m\] (response = a cos(2πft) + b sin(2πft)).
     pub a: f64,
-    /// Sine amplitude [m].
+    /// Sine amplitude \[m\].
     pub b: f64,
 }
 
@@ -111,7 +111,7 @@ pub struct CubicStiffness {
 /// Model extensions beyond the linear modal twin (added by `diagnose`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
 pub struct Extensions {
-    /// Constant delay [s] of the response behind the force (positive = response lags).
+    /// Constant delay \[s\] of the response behind the force (positive = response lags).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub delay_s: Option<f64>,
     /// External vibrations added to the response.

@@ -19,10 +19,10 @@ pub struct Args {
     /// Output FRF CSV (receptance, m/N).
     #[arg(long)]
     pub out: PathBuf,
-    /// Lowest frequency [Hz] (default: the twin's fitted band).
+    /// Lowest frequency \[Hz\] (default: the twin's fitted band).
     #[arg(long)]
     pub fmin: Option<f64>,
-    /// Highest frequency [Hz] (default: the twin's fitted band).
+    /// Highest frequency \[Hz\] (default: the twin's fitted band).
     #[arg(long)]
     pub fmax: Option<f64>,
     /// Number of lines, linearly spaced.

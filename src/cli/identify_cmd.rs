@@ -19,10 +19,10 @@ pub struct Args {
     /// stabilization diagram.
     #[arg(long)]
     pub order: Option<usize>,
-    /// Lower end of the fitted band [Hz].
+    /// Lower end of the fitted band \[Hz\].
     #[arg(long)]
     pub fmin: Option<f64>,
-    /// Upper end of the fitted band [Hz].
+    /// Upper end of the fitted band \[Hz\].
     #[arg(long)]
     pub fmax: Option<f64>,
     /// FRF estimator: h1, h2, hv.
@@ -31,7 +31,7 @@ pub struct Args {
     /// Excitation: auto, impact, continuous, chirp.
     #[arg(long, default_value = "auto", value_parser = ["auto", "impact", "continuous", "chirp"])]
     pub excitation: String,
-    /// Records within this distance [m] share a pose.
+    /// Records within this distance \[m\] share a pose.
     #[arg(long, default_value_t = 1e-3)]
     pub pose_tol: f64,
     /// Name of the machine, written into the twin.

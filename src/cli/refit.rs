@@ -24,7 +24,7 @@ pub struct Args {
     /// modal (mtwin's direct modal update, default) or paper (intermediate FRF + weighted refit).
     #[arg(long, default_value = "modal", value_parser = ["modal", "paper"])]
     pub method: String,
-    /// Refit when the simulated response fits worse than 100 - this [%].
+    /// Refit when the simulated response fits worse than 100 - this \[%\].
     #[arg(long, default_value_t = 5.0)]
     pub drift_threshold: f64,
     /// Refit even when no drift is detected.
@@ -36,7 +36,7 @@ pub struct Args {
     /// Minimum coherence of a line to be used.
     #[arg(long, default_value_t = 0.8)]
     pub min_coherence: f64,
-    /// Length [m] over which the change spreads to other poses (weight exp(-(d/L)²));
+    /// Length \[m\] over which the change spreads to other poses (weight exp(-(d/L)²));
     /// default half the workspace diagonal; `inf` = everywhere alike.
     #[arg(long)]
     pub spread_length: Option<f64>,

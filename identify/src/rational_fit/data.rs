@@ -17,13 +17,13 @@ pub(crate) struct Prepared {
     pub band: Frf,
     /// Scaled Laplace variable per line.
     pub s: Vec<Complex64>,
-    /// Angular-frequency scale [rad/s].
+    /// Angular-frequency scale \[rad/s\].
     pub w_scale: f64,
     /// Channel names.
     pub channels: Vec<Channel>,
     /// Scaled FRF per channel and line.
     pub h: Vec<Vec<Complex64>>,
-    /// Scale of each channel [m/N].
+    /// Scale of each channel \[m/N\].
     pub h_scale: Vec<f64>,
     /// Amplitude weight per channel and line (0 = not fitted).
     pub w: Vec<Vec<f64>>,
@@ -86,7 +86,9 @@ impl Prepared {
         }
         let f_hi = frf.freqs_hz[*keep.last().unwrap_or(&0)];
         if f_hi <= 0.0 {
-            return Err(Error::BadInput("the band holds no positive frequency".into()));
+            return Err(Error::BadInput(
+                "the band holds no positive frequency".into(),
+            ));
         }
         let band = Frf {
             freqs_hz: keep.iter().map(|&k| frf.freqs_hz[k]).collect(),
@@ -116,11 +118,9 @@ impl Prepared {
         let mut h = Vec::new();
         let mut h_scale = Vec::new();
         for (c, wc) in band.channels.iter().zip(&w) {
-            let (num, den) = c
-                .h
-                .iter()
-                .zip(wc)
-                .fold((0.0, 0.0), |(a, b), (h, w)| (a + w * w * h.norm_sqr(), b + w * w));
+            let (num, den) = c.h.iter().zip(wc).fold((0.0, 0.0), |(a, b), (h, w)| {
+                (a + w * w * h.norm_sqr(), b + w * w)
+            });
             let sc = if den > 0.0 && num > 0.0 {
                 (num / den).sqrt()
             } else {
@@ -228,7 +228,10 @@ fn validate(frf: &Frf) -> Result<()> {
                 nf
             )));
         }
-        if let Some(k) = c.h.iter().position(|h| !h.re.is_finite() || !h.im.is_finite()) {
+        if let Some(k) =
+            c.h.iter()
+                .position(|h| !h.re.is_finite() || !h.im.is_finite())
+        {
             return Err(Error::BadInput(format!(
                 "channel {}: non-finite value at {} Hz; remove or repair that line",
                 c.channel, frf.freqs_hz[k]

@@ -19,7 +19,7 @@ pub struct Sdof {
 }
 
 impl Sdof {
-    /// From natural frequency [Hz], damping ratio and stiffness [N/m].
+    /// From natural frequency \[Hz\], damping ratio and stiffness \[N/m\].
     pub fn new(fn_hz: f64, zeta: f64, k: f64) -> Self {
         let wn = 2.0 * PI * fn_hz;
         let m = k / (wn * wn);
