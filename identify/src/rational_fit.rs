@@ -343,7 +343,13 @@ fn auto_order(
     let max_modes = opts.max_modes.max(1);
     let n0 = physical.len().clamp(1, max_modes);
     let rel = |s: &Solved| (s.cost / energy).sqrt();
-    let white = |s: &Solved| varpro::lag_one_correlation(prep, s) < opts.white_residual;
+    // A white residual only counts as "noise, nothing missing" when it is also near the
+    // noise floor the coherence implies (when coherence is known): many close modes
+    // leave a residual that looks white along frequency but is far above the noise.
+    let white = |s: &Solved| {
+        varpro::lag_one_correlation(prep, s) < opts.white_residual
+            && noise.is_none_or(|nf| s.cost <= 2.0 * nf)
+    };
     let done = |s: &Solved| {
         rel(s) <= opts.target_residual || noise.is_some_and(|nf| s.cost <= nf) || white(s)
     };
