@@ -88,7 +88,7 @@ fn missing_force_column_is_rejected() {
 
 #[test]
 fn empty_file_is_rejected() {
-    check_bad("", 0, "empty");
+    check_bad("", 0, "no header and no data");
 }
 
 #[test]

@@ -10,7 +10,7 @@ use std::path::PathBuf;
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
     /// A data file could not be parsed or violates the format contract.
-    #[error("{file}:{line}{col}: {msg}", col = .column.as_ref().map(|c| format!(" column '{c}'")).unwrap_or_default())]
+    #[error("{file}{at}{col}: {msg}", at = if *.line > 0 { format!(":{}", .line) } else { String::new() }, col = .column.as_ref().map(|c| format!(" column '{c}'")).unwrap_or_default())]
     BadFile {
         /// The offending file.
         file: PathBuf,
