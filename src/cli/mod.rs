@@ -5,6 +5,7 @@ mod eval;
 mod export;
 mod frf;
 mod identify_cmd;
+mod lobes;
 mod refit;
 mod simulate;
 
@@ -60,6 +61,11 @@ pub enum Cmd {
     ///
     /// Example: mtwin export --twin twin.json --out machine.fmu
     Export(export::Args),
+    /// Milling stability lobes from the twin's tool-tip FRF at a pose: zero-order
+    /// (Altintas–Budak) and semi-discretisation (Insperger–Stépán).
+    ///
+    /// Example: mtwin lobes --twin twin.json --at 0.3,0.2,0.1 --teeth 3 --immersion 0.5 --out lobes.csv --plot lobes.svg
+    Lobes(lobes::Args),
 }
 
 /// Runs one parsed command line.
@@ -76,6 +82,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Cmd::Refit(a) => refit::run(a, &out),
         Cmd::Diagnose(a) => diagnose::run(a, &out),
         Cmd::Export(a) => export::run(a, &out),
+        Cmd::Lobes(a) => lobes::run(a, &out),
     }
 }
 

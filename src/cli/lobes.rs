@@ -1,0 +1,214 @@
+//! `mtwin lobes`.
+
+use super::{check_output_not_input, parse_pose, BadInput, Output};
+use crate::report::{self, Scale, Series};
+use anyhow::Result;
+use identify::axis::{Axis, Channel};
+use identify::interpolate::TwinEvaluator;
+use identify::model::{ChannelModel, ModeNum};
+use identify::lobes::{lobes_sd, lobes_zoa, write_lobes_csv, Cut, SdOptions, Tool};
+use identify::twin::Twin;
+use std::path::PathBuf;
+
+/// Arguments of `mtwin lobes`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// The twin file.
+    #[arg(long)]
+    pub twin: PathBuf,
+    /// Pose X,Y,Z in metres where the tool-tip FRF is taken.
+    #[arg(long, value_parser = parse_pose, allow_hyphen_values = true)]
+    pub at: [f64; 3],
+    /// Output CSV: rpm, ap_lim_zoa_m, ap_lim_sd_m, chatter_hz_zoa, chatter_hz_sd.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Number of teeth.
+    #[arg(long, default_value_t = 2)]
+    pub teeth: usize,
+    /// Tool diameter in m (used with a helix).
+    #[arg(long, default_value_t = 0.016)]
+    pub diameter: f64,
+    /// Helix angle in degrees.
+    #[arg(long, default_value_t = 0.0)]
+    pub helix: f64,
+    /// Radial immersion ae/D in (0, 1] (1 = slotting).
+    #[arg(long, default_value_t = 1.0)]
+    pub immersion: f64,
+    /// Up (conventional) milling instead of down (climb) milling.
+    #[arg(long)]
+    pub up: bool,
+    /// Tangential cutting coefficient Kt in N/m².
+    #[arg(long, default_value_t = 6e8)]
+    pub kt: f64,
+    /// Radial to tangential force ratio Kr.
+    #[arg(long, default_value_t = 0.3)]
+    pub kr: f64,
+    /// Lowest spindle speed in rpm.
+    #[arg(long, default_value_t = 2000.0)]
+    pub rpm_min: f64,
+    /// Highest spindle speed in rpm.
+    #[arg(long, default_value_t = 20000.0)]
+    pub rpm_max: f64,
+    /// Number of spindle speeds (log-spaced).
+    #[arg(long, default_value_t = 200)]
+    pub speeds: usize,
+    /// Also compute the semi-discretisation (exact for the linear delay equation;
+    /// slower) at this many of the speeds (0 = zero-order method only).
+    #[arg(long, default_value_t = 40)]
+    pub sd_speeds: usize,
+    /// Semi-discretisation steps per engaged tooth period.
+    #[arg(long, default_value_t = 40)]
+    pub sd_steps: usize,
+    /// Also write an SVG plot of the lobes here.
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+}
+
+fn speeds(lo: f64, hi: f64, n: usize) -> Vec<f64> {
+    if n <= 1 {
+        return vec![lo];
+    }
+    let r = (hi / lo).powf(1.0 / (n - 1) as f64);
+    (0..n).map(|i| lo * r.powi(i as i32)).collect()
+}
+
+/// Runs `mtwin lobes`.
+pub fn run(a: Args, out: &Output) -> Result<()> {
+    check_output_not_input(&a.out, std::slice::from_ref(&a.twin))?;
+    if !(a.rpm_min > 0.0 && a.rpm_max > a.rpm_min && a.speeds >= 1) {
+        return Err(BadInput(format!(
+            "spindle speeds: need 0 < --rpm-min < --rpm-max and --speeds >= 1 (got {} .. {}, {})",
+            a.rpm_min, a.rpm_max, a.speeds
+        ))
+        .into());
+    }
+    let twin = Twin::load(&a.twin)?;
+    let mut ev = TwinEvaluator::new(&twin)?;
+    if !ev.is_inside(a.at) {
+        out.say(format!(
+            "note: pose {:?} is outside the measured poses; the model of the nearest point of the measured box is used",
+            a.at
+        ));
+    }
+    let mut model = ev.model_at(a.at).clone();
+    for axis in [Axis::X, Axis::Y] {
+        let ch = Channel::new(axis, axis);
+        if model.channel_index(ch).is_none() {
+            out.say(format!(
+                "note: the twin has no {} channel; the tool is taken as rigid in {}",
+                ch.name(),
+                axis
+            ));
+            model.channels.push(ChannelModel {
+                channel: ch,
+                num: vec![ModeNum { b0: 0.0, b1: 0.0 }; model.modes.len()],
+                d: 0.0,
+            });
+        }
+    }
+    let tool = Tool {
+        teeth: a.teeth,
+        diameter_m: a.diameter,
+        helix_deg: a.helix,
+    };
+    let cut = Cut {
+        radial_immersion: a.immersion,
+        down_milling: !a.up,
+        kt: a.kt,
+        kr: a.kr,
+    };
+    let rpm = speeds(a.rpm_min, a.rpm_max, a.speeds);
+    let t0 = std::time::Instant::now();
+    let zoa = lobes_zoa(&model, &tool, &cut, &rpm)?;
+    let t_zoa = t0.elapsed();
+    let (sd, t_sd) = if a.sd_speeds > 0 {
+        let rpm_sd = speeds(a.rpm_min, a.rpm_max, a.sd_speeds);
+        let t1 = std::time::Instant::now();
+        let opts = SdOptions {
+            steps: a.sd_steps.max(2),
+            ..SdOptions::default()
+        };
+        (lobes_sd(&model, &tool, &cut, &rpm_sd, &opts)?, t1.elapsed())
+    } else {
+        (Vec::new(), std::time::Duration::ZERO)
+    };
+    // The CSV holds both on one grid when they share it; otherwise the ZOA grid and SD
+    // values on their own rows are written as two files.
+    if sd.is_empty() || sd.len() == zoa.len() {
+        write_lobes_csv(&a.out, &zoa, &sd)?;
+    } else {
+        write_lobes_csv(&a.out, &zoa, &[])?;
+        let sd_path = a.out.with_extension("sd.csv");
+        write_lobes_csv(&sd_path, &[], &sd)?;
+        out.say(format!("semi-discretisation lobes -> {}", sd_path.display()));
+    }
+    let min_zoa = zoa
+        .iter()
+        .map(|p| p.ap_lim_m)
+        .fold(f64::INFINITY, f64::min);
+    let min_sd = sd.iter().map(|p| p.ap_lim_m).fold(f64::INFINITY, f64::min);
+    out.say(format!(
+        "lobes at ({:.3}, {:.3}, {:.3}) m, {} teeth, ae/D {}, Kt {:.3e} N/m², Kr {}: \
+         minimum stable depth ZOA {:.3} mm ({} speeds, {:.0} ms){}",
+        a.at[0],
+        a.at[1],
+        a.at[2],
+        a.teeth,
+        a.immersion,
+        a.kt,
+        a.kr,
+        min_zoa * 1e3,
+        zoa.len(),
+        t_zoa.as_secs_f64() * 1e3,
+        if sd.is_empty() {
+            String::new()
+        } else {
+            format!(
+                ", semi-discretisation {:.3} mm ({} speeds, {:.2} s)",
+                min_sd * 1e3,
+                sd.len(),
+                t_sd.as_secs_f64()
+            )
+        }
+    ));
+    if let Some(p) = &a.plot {
+        let zx: Vec<f64> = zoa.iter().map(|p| p.rpm).collect();
+        let zy: Vec<f64> = zoa.iter().map(|p| p.ap_lim_m * 1e3).collect();
+        let sx: Vec<f64> = sd.iter().map(|p| p.rpm).collect();
+        let sy: Vec<f64> = sd.iter().map(|p| p.ap_lim_m * 1e3).collect();
+        let mut series = vec![Series {
+            label: "zero-order (Altintas-Budak)",
+            x: &zx,
+            y: &zy,
+            color: 2,
+            points: false,
+        }];
+        if !sd.is_empty() {
+            series.push(Series {
+                label: "semi-discretisation",
+                x: &sx,
+                y: &sy,
+                color: 1,
+                points: true,
+            });
+        }
+        let svg = report::plot(
+            "Stability lobes",
+            "spindle speed [rpm]",
+            "limiting axial depth [mm]",
+            &series,
+            Scale::Lin,
+        );
+        identify::atomic::write_atomic(p, svg.as_bytes())?;
+        out.say(format!("plot -> {}", p.display()));
+    }
+    out.say(format!("lobes -> {}", a.out.display()));
+    out.json(&serde_json::json!({
+        "out": a.out,
+        "min_ap_zoa_m": min_zoa,
+        "min_ap_sd_m": if sd.is_empty() { None } else { Some(min_sd) },
+        "zoa": zoa.iter().map(|p| serde_json::json!({"rpm": p.rpm, "ap_lim_m": p.ap_lim_m, "chatter_hz": p.chatter_hz})).collect::<Vec<_>>(),
+        "sd": sd.iter().map(|p| serde_json::json!({"rpm": p.rpm, "ap_lim_m": p.ap_lim_m, "chatter_hz": p.chatter_hz})).collect::<Vec<_>>(),
+    }));
+    Ok(())
+}
