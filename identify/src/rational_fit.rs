@@ -355,7 +355,7 @@ fn auto_order(
     };
     let mut best = fit_order(prep, start_poles(prep, physical, n0), opts, report)?;
     // Prune diagram modes that only fit noise: drop the weakest while the residual
-    // stays white.
+    // stays white and hardly grows.
     while best.modes.len() > 1 && white(&best) && rel(&best) > opts.target_residual {
         let contrib = varpro::mode_contributions(prep, &best);
         let weakest = (0..contrib.len())
@@ -364,7 +364,10 @@ fn auto_order(
         let mut modes = best.modes.clone();
         modes.remove(weakest);
         let cand = fit_order(prep, vf::modes_to_poles(&modes), opts, report)?;
-        if white(&cand) {
+        // A mode that only fits noise barely changes the residual when removed; a
+        // physical mode's removal raises it even if the residual still looks white
+        // (a missing sharp peak spans few lines).
+        if white(&cand) && rel(&cand) <= rel(&best) * (1.0 + 3.0 * opts.min_improvement) {
             best = cand;
         } else {
             break;

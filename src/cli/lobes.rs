@@ -5,8 +5,8 @@ use crate::report::{self, Scale, Series};
 use anyhow::Result;
 use identify::axis::{Axis, Channel};
 use identify::interpolate::TwinEvaluator;
-use identify::model::{ChannelModel, ModeNum};
 use identify::lobes::{lobes_sd, lobes_zoa, write_lobes_csv, Cut, SdOptions, Tool};
+use identify::model::{ChannelModel, ModeNum};
 use identify::twin::Twin;
 use std::path::PathBuf;
 
@@ -140,12 +140,12 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
         write_lobes_csv(&a.out, &zoa, &[])?;
         let sd_path = a.out.with_extension("sd.csv");
         write_lobes_csv(&sd_path, &[], &sd)?;
-        out.say(format!("semi-discretisation lobes -> {}", sd_path.display()));
+        out.say(format!(
+            "semi-discretisation lobes -> {}",
+            sd_path.display()
+        ));
     }
-    let min_zoa = zoa
-        .iter()
-        .map(|p| p.ap_lim_m)
-        .fold(f64::INFINITY, f64::min);
+    let min_zoa = zoa.iter().map(|p| p.ap_lim_m).fold(f64::INFINITY, f64::min);
     let min_sd = sd.iter().map(|p| p.ap_lim_m).fold(f64::INFINITY, f64::min);
     out.say(format!(
         "lobes at ({:.3}, {:.3}, {:.3}) m, {} teeth, ae/D {}, Kt {:.3e} N/m², Kr {}: \
