@@ -74,6 +74,11 @@ pub enum Weighting {
     Coherence,
     /// W = 1 on every line (the paper's 3-DoF example).
     Uniform,
+    /// The maximum-likelihood weight of an H1 estimate: `W = 1/σ` with the line's
+    /// standard deviation `σ² = |H|² (1−γ²)/γ²` (γ² capped at 0.9999), so small
+    /// resonances far below the largest peak count as much as their noise allows.
+    /// Uniform for channels without coherence.
+    InverseVariance,
     /// Amplitude weight W per channel per line of the input FRF (≥ 0).
     Custom(Vec<Vec<f64>>),
 }

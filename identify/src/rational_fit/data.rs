@@ -31,6 +31,8 @@ pub(crate) struct Prepared {
 
 /// Largest coherence that still raises the weight; above it every line counts fully.
 const COH_CLIP: f64 = 0.99;
+/// Largest coherence used by the inverse-variance weight.
+const IV_CLIP: f64 = 0.9999;
 
 impl Prepared {
     /// Validates `frf`, restricts it to the band and builds the weights.
@@ -265,6 +267,23 @@ pub(crate) fn full_weights(
     for (ci, ch) in frf.channels.iter().enumerate() {
         let mut w = match (custom, &opts.weighting, &ch.coherence) {
             (Some(cw), _, _) => cw[ci].clone(),
+            (None, Weighting::InverseVariance, Some(g)) => {
+                // W = 1/σ with σ² = |H|² (1−γ²)/γ² (the H1 variance), normalised later;
+                // γ² capped so a perfect line does not get an infinite weight
+                let peak = ch.h.iter().map(|v| v.norm()).fold(0.0, f64::max);
+                g.iter()
+                    .zip(&ch.h)
+                    .map(|(&g, h)| {
+                        let g = g.clamp(0.0, IV_CLIP);
+                        let mag = h.norm().max(1e-6 * peak);
+                        if mag > 0.0 {
+                            (g / (1.0 - g)).sqrt() / mag
+                        } else {
+                            0.0
+                        }
+                    })
+                    .collect()
+            }
             (None, Weighting::Coherence, Some(g)) => g
                 .iter()
                 .map(|&g| {

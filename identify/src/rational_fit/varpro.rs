@@ -101,18 +101,20 @@ fn evaluate(p: &Prepared, modes: &[Mode]) -> Option<(Solved, DMatrix<f64>, DVect
             }
         }
         let qr = asc.qr();
-        let q = qr.q();
+        // V = (∂A/∂θ) x, two columns per mode; the last column holds y. Applying the
+        // QR's reflections to [V | y] gives, below row m, the parts orthogonal to the
+        // range of A: P V and P y = r (no explicit Q).
+        let n_rows = y.len();
+        let mut vy = DMatrix::<f64>::zeros(n_rows, np + 1);
+        vy.column_mut(np).copy_from(&y);
+        let mut qty = y.clone();
+        qr.q_tr_mul(&mut qty);
         let r = qr.r();
-        let qty = q.tr_mul(&y);
-        let xs = r.solve_upper_triangular(&qty)?;
+        let xs = r.solve_upper_triangular(&qty.rows(0, m).into_owned())?;
         let x: Vec<f64> = xs.iter().zip(&cs).map(|(v, c)| v * c).collect();
         if x.iter().any(|v| !v.is_finite()) {
             return None;
         }
-        let res = &y - &q * &qty;
-        cost += res.norm_squared();
-        // V = (∂A/∂θ) x, two columns per mode
-        let mut v = DMatrix::<f64>::zeros(y.len(), np);
         for (i, &k) in lines.iter().enumerate() {
             let w = p.w[ci][k];
             let s = p.s[k];
@@ -123,14 +125,17 @@ fn evaluate(p: &Prepared, modes: &[Mode]) -> Option<(Solved, DMatrix<f64>, DVect
                 // ∂den/∂ln ω = ω (2ζ s + 2ω), ∂den/∂ln ζ = 2ζω s
                 let d_w = g * ((s * (2.0 * md.zeta) + 2.0 * md.wn) * md.wn);
                 let d_z = g * (s * (2.0 * md.zeta * md.wn));
-                v[(2 * i, 2 * j)] = d_w.re;
-                v[(2 * i + 1, 2 * j)] = d_w.im;
-                v[(2 * i, 2 * j + 1)] = d_z.re;
-                v[(2 * i + 1, 2 * j + 1)] = d_z.im;
+                vy[(2 * i, 2 * j)] = d_w.re;
+                vy[(2 * i + 1, 2 * j)] = d_w.im;
+                vy[(2 * i, 2 * j + 1)] = d_z.re;
+                vy[(2 * i + 1, 2 * j + 1)] = d_z.im;
             }
         }
-        let qtv = q.tr_mul(&v);
-        let pv = &v - &q * qtv;
+        qr.q_tr_mul(&mut vy);
+        let tail = vy.rows(m, n_rows - m);
+        let pv = tail.columns(0, np);
+        let res = tail.column(np);
+        cost += res.norm_squared();
         jtj += pv.tr_mul(&pv);
         // J = -PV, Jᵀr = -(PV)ᵀ r
         jtr -= pv.tr_mul(&res);
