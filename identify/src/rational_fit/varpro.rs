@@ -221,7 +221,7 @@ pub(crate) fn refine(p: &Prepared, start: &[Mode], max_iter: usize) -> Option<So
                     jtj = j2;
                     jtr = r2;
                     lambda = (lambda / 3.0).max(1e-9);
-                    improved = rel > 1e-10;
+                    improved = rel > 1e-6;
                     break;
                 }
                 _ => lambda *= 4.0,
