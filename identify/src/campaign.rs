@@ -8,6 +8,7 @@ use crate::interpolate::{Method, TwinEvaluator};
 use crate::model::ModalModel;
 use crate::rational_fit::{fit_frf, refine_from, FitOptions};
 use crate::spectra::{estimate_frf, FrfOptions};
+use crate::stabilization::StabilizationDiagram;
 use crate::timeseries::TimeSeries;
 use crate::twin::{
     now_unix, ChannelFit, HistoryEntry, InterpolationInfo, LooEntry, OrderInfo, PoseModel, Twin,
@@ -83,6 +84,8 @@ pub struct CampaignResult {
     pub twin: Twin,
     /// Warnings from FRF estimation and tracking, per pose.
     pub warnings: Vec<String>,
+    /// The stabilization diagram of every pose, in the order of `twin.poses`.
+    pub diagrams: Vec<StabilizationDiagram>,
 }
 
 struct PoseFit {
@@ -93,6 +96,7 @@ struct PoseFit {
     sigma: Option<f64>,
     sources: Vec<String>,
     warnings: Vec<String>,
+    diagram: StabilizationDiagram,
 }
 
 /// Weights the fit uses for `frf` (coherence-based by default), per channel per line.
@@ -164,6 +168,7 @@ pub fn identify_campaign(
                 sigma: est.exp_window_sigma,
                 sources: recs.iter().map(|r| r.source.clone()).collect(),
                 warnings: est.warnings,
+                diagram: res.diagram,
             })
         })
         .collect();
@@ -179,6 +184,7 @@ pub fn identify_campaign(
     if fits.len() > 1 {
         warnings.extend(track_modes(&mut fits, opts)?);
     }
+    let diagrams: Vec<StabilizationDiagram> = fits.iter().map(|f| f.diagram.clone()).collect();
     let poses: Vec<PoseModel> = fits
         .into_iter()
         .map(|f| {
@@ -213,7 +219,11 @@ pub fn identify_campaign(
         figures: Default::default(),
         previous_poses: Vec::new(),
     });
-    Ok(CampaignResult { twin, warnings })
+    Ok(CampaignResult {
+        twin,
+        warnings,
+        diagrams,
+    })
 }
 
 /// Makes every pose model carry the same modes in the same order.

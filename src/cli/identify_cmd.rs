@@ -34,6 +34,10 @@ pub struct Args {
     /// Records within this distance \[m\] share a pose.
     #[arg(long, default_value_t = 1e-3)]
     pub pose_tol: f64,
+    /// Also write an HTML report (FRFs, coherence, stabilization diagram, modes across
+    /// the workspace) here.
+    #[arg(long)]
+    pub report: Option<PathBuf>,
     /// Name of the machine, written into the twin.
     #[arg(long, default_value = "machine")]
     pub name: String,
@@ -136,6 +140,11 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
         ));
     }
     out.say(format!("twin -> {}", a.out.display()));
+    if let Some(r) = &a.report {
+        let html = super::identify_report::identify_report(twin, &res.diagrams);
+        identify::atomic::write_atomic(r, html.as_bytes())?;
+        out.say(format!("report -> {}", r.display()));
+    }
     out.json(&serde_json::json!({
         "out": a.out,
         "poses": twin.poses.iter().map(|p| serde_json::json!({

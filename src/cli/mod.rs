@@ -5,6 +5,7 @@ mod eval;
 mod export;
 mod frf;
 mod identify_cmd;
+pub mod identify_report;
 mod lobes;
 mod refit;
 mod simulate;
