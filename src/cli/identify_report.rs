@@ -132,10 +132,7 @@ pub fn identify_report(twin: &Twin, diagrams: &[StabilizationDiagram]) -> String
                 .collect();
             let fx: Vec<f64> = keep.iter().map(|&k| f[k]).collect();
             let meas_mag: Vec<f64> = keep.iter().map(|&k| ch.h[k].norm()).collect();
-            let meas_ph: Vec<f64> = keep
-                .iter()
-                .map(|&k| ch.h[k].arg() * 180.0 / PI)
-                .collect();
+            let meas_ph: Vec<f64> = keep.iter().map(|&k| ch.h[k].arg() * 180.0 / PI).collect();
             let model: Vec<_> = fx.iter().map(|&x| p.model.eval_hz(ci, x)).collect();
             let mod_mag: Vec<f64> = model.iter().map(|v| v.norm()).collect();
             let mod_ph: Vec<f64> = model.iter().map(|v| v.arg() * 180.0 / PI).collect();
