@@ -120,18 +120,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!("\n## 2. H(z^-1) at Ts = 0.01 s (paper eq. 4 form, numerator x 1e-5)");
     println!(
         "b = {:?}",
-        b.iter().map(|v| format!("{:.4}", v / scale)).collect::<Vec<_>>()
+        b.iter()
+            .map(|v| format!("{:.4}", v / scale))
+            .collect::<Vec<_>>()
     );
     println!(
         "a = {:?}",
         a.iter().map(|v| format!("{:.4}", v)).collect::<Vec<_>>()
     );
-    let max_pole = |a: &[f64]| {
-        poly_roots(a)
-            .iter()
-            .map(|p| p.norm())
-            .fold(0.0, f64::max)
-    };
+    let max_pole = |a: &[f64]| poly_roots(a).iter().map(|p| p.norm()).fold(0.0, f64::max);
     let round4 = |v: f64| {
         if v == 0.0 {
             0.0
@@ -152,14 +149,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     // --- 3. refit after a 10 % loss of k1
     let worn = chain.clone().with_k1_factor(0.9);
     let fs = d.fs_sim();
-    let n = (600.0 * fs) as usize;
+    let n = (1800.0 * fs) as usize;
     // milling-like force: tooth passing at 2.9 Hz with harmonics, plus broadband share
     let tooth = 2.9;
     let mut f: Vec<f64> = (0..n)
         .map(|i| {
             let t = i as f64 / fs;
             (1..=6)
-                .map(|h| (8.0 / h as f64) * (2.0 * PI * tooth * h as f64 * t + 0.3 * h as f64).sin())
+                .map(|h| {
+                    (8.0 / h as f64) * (2.0 * PI * tooth * h as f64 * t + 0.3 * h as f64).sin()
+                })
                 .sum::<f64>()
                 + 20.0
         })
@@ -187,6 +186,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             },
         )?;
         let fit = fit_vs_truth(&tw2.poses[0].model, &worn, &freqs_all);
+        if std::env::var_os("MTWIN_VERBOSE").is_some() {
+            eprintln!("truth {:?}", worn.natural_freqs_hz());
+            for m in &rep.modes {
+                eprintln!("{m:?}");
+            }
+        }
         println!(
             "{:?} method: updated model vs analytic changed chain {fit:.2} % (paper 95.23 %, target >= 99 %); drift check fit {:.1} %, {} lines used, {:.0} ms",
             method,

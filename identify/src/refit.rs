@@ -22,7 +22,7 @@
 //!    pose models is appended; nothing is ever removed.
 
 use crate::axis::Axis;
-use crate::campaign::{channel_fits, weights_for};
+use crate::campaign::channel_fits;
 use crate::error::{Error, Result};
 use crate::frf::{fit_percent_real, Frf};
 use crate::interpolate::{simulate_twin, TwinEvaluator};
@@ -186,11 +186,20 @@ pub fn time_fit(twin: &Twin, records: &[TimeSeries]) -> Result<f64> {
     Ok(fit_percent_real(&meas, &sim))
 }
 
-fn default_nfft(ts: &TimeSeries) -> usize {
-    // about 1 s segments (≈1 Hz lines), at least 8 averages when the record allows
+/// Welch segment length: lines no wider than half the narrowest half-power bandwidth of
+/// the twin's modes below 0.4 fs (so peaks are resolved), but at least 4 segments in the
+/// record (7 averages with 50 % overlap).
+fn default_nfft(ts: &TimeSeries, model: &ModalModel) -> usize {
     let n = ts.len();
-    let mut nfft = (ts.fs()).round() as usize;
-    nfft = nfft.next_power_of_two();
+    let fs = ts.fs();
+    let df = model
+        .modes
+        .iter()
+        .filter(|m| m.freq_hz() < 0.4 * fs)
+        .map(|m| m.zeta * m.freq_hz())
+        .fold(fs / 256.0, f64::min)
+        .max(fs / (1usize << 20) as f64);
+    let mut nfft = ((fs / df).ceil() as usize).next_power_of_two();
     while nfft > 256 && nfft * 4 > n {
         nfft /= 2;
     }
@@ -261,23 +270,38 @@ fn chi(model: &ModalModel, pts: &[Points]) -> f64 {
     }
 }
 
-/// Modes whose contribution dominates (≥ 30 % of |H|) at some selected line.
+/// Modes the operating data can tell about: the mode dominates (≥ 30 % of |H|) at some
+/// selected line AND selected lines lie on both sides of its peak within a few half-power
+/// bandwidths (or shifted by up to 15 %), so its frequency and damping are resolved.
 fn excited_modes(model: &ModalModel, pts: &[Points]) -> Vec<usize> {
     let mut free = Vec::new();
     for k in 0..model.modes.len() {
         let m = model.modes[k];
-        let hit = pts.iter().any(|p| {
+        let fk = m.freq_hz();
+        let reach = (6.0 * m.zeta * fk).max(0.15 * fk);
+        let mut below = false;
+        let mut above = false;
+        let mut dominant = false;
+        for p in pts {
             let Some(ci) = model.channel_index(p.channel) else {
-                return false;
+                continue;
             };
             let n = model.channels[ci].num[k];
-            p.freqs_hz.iter().any(|f| {
+            for f in &p.freqs_hz {
                 let s = Complex64::new(0.0, 2.0 * PI * f);
                 let hk = (s * n.b1 + n.b0) / m.den(s);
-                hk.norm() >= 0.3 * model.eval_s(ci, s).norm()
-            })
-        });
-        if hit {
+                if hk.norm() >= 0.3 * model.eval_s(ci, s).norm() {
+                    dominant = true;
+                    if *f <= fk && fk - f <= reach {
+                        below = true;
+                    }
+                    if *f >= fk && f - fk <= reach {
+                        above = true;
+                    }
+                }
+            }
+        }
+        if dominant && (below || above) {
             free.push(k);
         }
     }
@@ -398,10 +422,10 @@ pub fn refit(
             pose[a] += p[a] * r.len() as f64 / total.max(1) as f64;
         }
     }
-    let nfft = opts.nfft.unwrap_or_else(|| default_nfft(first));
-    let sp = operating_spectra(records, nfft)?;
     let mut ev = TwinEvaluator::new(twin)?;
     let old = ev.model_at(pose).clone();
+    let nfft = opts.nfft.unwrap_or_else(|| default_nfft(first, &old));
+    let sp = operating_spectra(records, nfft)?;
     let lines = selected_lines(&sp, opts);
     let pts = operating_points(&sp, &lines, &old);
     let drift_chi = chi(&old, &pts);
@@ -515,6 +539,5 @@ pub fn refit(
         figures,
         previous_poses: twin.poses.clone(),
     });
-    let _ = weights_for;
     Ok((out, report))
 }
