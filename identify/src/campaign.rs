@@ -233,6 +233,65 @@ pub fn identify_campaign(
 /// refined there (Levenberg–Marquardt from the neighbour's parameters: continuity of
 /// frequency, damping and residues), then on from there (Prim's order), so "mode 2"
 /// means the same physical mode everywhere.
+/// Residue vector of mode `k` over `channels` (b0 and ωn·b1 per channel), unit length.
+fn shape_vector(m: &ModalModel, k: usize, channels: &[crate::axis::Channel]) -> Vec<f64> {
+    let mut v = Vec::with_capacity(2 * channels.len());
+    for ch in channels {
+        if let Some(ci) = m.channel_index(*ch) {
+            let n = m.channels[ci].num[k];
+            v.push(n.b0);
+            v.push(n.b1 * m.modes[k].wn);
+        } else {
+            v.extend([0.0, 0.0]);
+        }
+    }
+    let nrm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+    if nrm > 0.0 {
+        v.iter_mut().for_each(|x| *x /= nrm);
+    }
+    v
+}
+
+/// Reorders the modes of `m` so that mode `k` is the physical mode `k` of `reference`:
+/// a greedy assignment on frequency distance plus mode-shape dissimilarity (1 − MAC of
+/// the residue vectors), so crossing modes keep their identity.
+pub fn match_modes(reference: &ModalModel, m: &ModalModel) -> ModalModel {
+    let n = reference.modes.len();
+    if m.modes.len() != n || n == 0 {
+        return m.clone();
+    }
+    let chans: Vec<crate::axis::Channel> = reference.channels.iter().map(|c| c.channel).collect();
+    let rs: Vec<Vec<f64>> = (0..n).map(|k| shape_vector(reference, k, &chans)).collect();
+    let ms: Vec<Vec<f64>> = (0..n).map(|k| shape_vector(m, k, &chans)).collect();
+    let mut pairs = Vec::with_capacity(n * n);
+    for k in 0..n {
+        for l in 0..n {
+            let dfreq = (m.modes[l].wn / reference.modes[k].wn).ln().abs() / 0.05;
+            let dot: f64 = rs[k].iter().zip(&ms[l]).map(|(a, b)| a * b).sum();
+            let mac = dot * dot;
+            pairs.push((dfreq + 3.0 * (1.0 - mac), k, l));
+        }
+    }
+    pairs.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut of_ref = vec![usize::MAX; n];
+    let mut used = vec![false; n];
+    for (_, k, l) in pairs {
+        if of_ref[k] == usize::MAX && !used[l] {
+            of_ref[k] = l;
+            used[l] = true;
+        }
+    }
+    let mut out = m.clone();
+    for k in 0..n {
+        let l = of_ref[k];
+        out.modes[k] = m.modes[l];
+        for (co, ci) in out.channels.iter_mut().zip(&m.channels) {
+            co.num[k] = ci.num[l];
+        }
+    }
+    out
+}
+
 fn track_modes(fits: &mut [PoseFit], opts: &CampaignOptions) -> Result<Vec<String>> {
     let mut warnings = Vec::new();
     let n = fits.len();
@@ -298,6 +357,7 @@ fn track_modes(fits: &mut [PoseFit], opts: &CampaignOptions) -> Result<Vec<Strin
         if let Some(s) = fits[i].sigma {
             refined.shift_poles(s);
         }
+        let refined = match_modes(&fits[j].model, &refined);
         fits[i].model = refined;
         fits[i].order.modes = m;
         tracked[i] = true;
