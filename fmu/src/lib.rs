@@ -1,3 +1,22 @@
-//! FMI 2.0 co-simulation slave evaluating an mtwin twin (work in progress).
+//! # mtwin-fmu — the twin as an FMI 2.0 co-simulation slave
+//!
+//! A `cdylib` exporting the 34 functions of FMI 2.0 Co-Simulation, in three layers:
+//!
+//! * [`ffi`] — the C types;
+//! * `exports` — the `extern "C"` functions, each through one trampoline (null checks,
+//!   `catch_unwind`, errors logged and returned as `fmi2Error`, never `fmi2Discard`);
+//! * [`slave`] — the safe core: life cycle, value references, `doStep` on the twin
+//!   interpolated at the current axis positions (the same state-space core as
+//!   `mtwin simulate`).
+//!
+//! [`export::export_fmu`] packages a twin as an `.fmu` (zip with `modelDescription.xml`,
+//! `binaries/linux64/mtwin_tcp.so`, `resources/twin.json`). No global state: instances
+//! are independent.
 
 pub mod export;
+#[allow(missing_docs)]
+mod exports;
+pub mod ffi;
+pub mod slave;
+
+pub use exports::resource_dir;

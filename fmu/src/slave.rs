@@ -1,0 +1,324 @@
+//! The safe co-simulation slave: knows the twin, nothing of C.
+//!
+//! **Alignment with `mtwin simulate`** (zero-order hold, the FMI 2.0 co-simulation
+//! convention): the master sets the inputs valid at `t`, reads the outputs at `t`
+//! (state at `t` plus the direct feedthrough of the force at `t`, with the model at the
+//! pose at `t`), then calls `doStep(t, h)`, which advances the state to `t + h` with the
+//! force and pose held at their values of `t`. Fed the samples of a record this gives,
+//! sample by sample, exactly what `mtwin simulate --hold zoh` writes.
+
+use identify::axis::Axis;
+use identify::interpolate::TwinEvaluator;
+use identify::simulate::{Hold, Simulator};
+use identify::twin::Twin;
+
+/// Value references: inputs Fx, Fy, Fz, x, y, z then outputs dx, dy, dz — only the
+/// axes the twin has, numbered in this order from 0.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Var {
+    /// Force along an axis (input).
+    Force(Axis),
+    /// Axis position (input).
+    Pos(Axis),
+    /// TCP displacement along an axis (output).
+    Disp(Axis),
+}
+
+impl Var {
+    /// The FMI variable name.
+    pub fn name(&self) -> String {
+        match self {
+            Var::Force(a) => format!("F{a}"),
+            Var::Pos(a) => format!("{a}"),
+            Var::Disp(a) => format!("d{a}"),
+        }
+    }
+}
+
+/// The variables of a twin's FMU, in value-reference order.
+pub fn variables(twin: &Twin) -> Vec<Var> {
+    let mut ins: Vec<Axis> = twin.channels.iter().map(|c| c.input).collect();
+    let mut outs: Vec<Axis> = twin.channels.iter().map(|c| c.output).collect();
+    ins.sort();
+    ins.dedup();
+    outs.sort();
+    outs.dedup();
+    let mut v: Vec<Var> = ins.iter().map(|a| Var::Force(*a)).collect();
+    v.extend(Axis::ALL.iter().map(|a| Var::Pos(*a)));
+    v.extend(outs.iter().map(|a| Var::Disp(*a)));
+    v
+}
+
+/// Life-cycle state of the slave.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Phase {
+    /// After instantiate / reset.
+    Instantiated,
+    /// Between enter and exit initialization mode.
+    Initialization,
+    /// Stepping.
+    StepComplete,
+    /// After terminate.
+    Terminated,
+}
+
+/// A snapshot of the dynamic state (FMU state).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Snapshot {
+    time: f64,
+    inputs: [f64; 6],
+    state: Vec<[f64; 2]>,
+    phase_stepping: bool,
+}
+
+impl Snapshot {
+    /// Flat little-endian bytes.
+    pub fn to_bytes(&self) -> Vec<u8> {
+        let mut b = Vec::with_capacity(8 * (8 + 2 * self.state.len()));
+        b.extend_from_slice(b"MTWS");
+        b.extend_from_slice(&(self.state.len() as u32).to_le_bytes());
+        b.extend_from_slice(&self.time.to_le_bytes());
+        b.push(u8::from(self.phase_stepping));
+        for v in self.inputs {
+            b.extend_from_slice(&v.to_le_bytes());
+        }
+        for s in &self.state {
+            b.extend_from_slice(&s[0].to_le_bytes());
+            b.extend_from_slice(&s[1].to_le_bytes());
+        }
+        b
+    }
+
+    /// Parses [`Snapshot::to_bytes`].
+    pub fn from_bytes(b: &[u8]) -> Result<Self, String> {
+        let bad = || "serialized FMU state is corrupt or from another FMU".to_string();
+        if b.len() < 17 || &b[..4] != b"MTWS" {
+            return Err(bad());
+        }
+        let n = u32::from_le_bytes(b[4..8].try_into().map_err(|_| bad())?) as usize;
+        if b.len() != 17 + 48 + 16 * n {
+            return Err(bad());
+        }
+        let f = |i: usize| f64::from_le_bytes(b[i..i + 8].try_into().unwrap_or([0; 8]));
+        let time = f(8);
+        let phase_stepping = b[16] != 0;
+        let mut inputs = [0.0; 6];
+        for (k, v) in inputs.iter_mut().enumerate() {
+            *v = f(17 + 8 * k);
+        }
+        let base = 17 + 48;
+        let state = (0..n).map(|k| [f(base + 16 * k), f(base + 16 * k + 8)]).collect();
+        Ok(Snapshot {
+            time,
+            inputs,
+            state,
+            phase_stepping,
+        })
+    }
+}
+
+/// The slave core.
+#[derive(Debug)]
+pub struct Slave {
+    vars: Vec<Var>,
+    ev: TwinEvaluator,
+    sim: Simulator,
+    /// Fx, Fy, Fz, x, y, z.
+    inputs: [f64; 6],
+    start: [f64; 6],
+    time: f64,
+    start_time: f64,
+    phase: Phase,
+}
+
+impl Slave {
+    /// A slave for `twin`.
+    pub fn new(twin: &Twin) -> Result<Self, String> {
+        let ev = TwinEvaluator::new(twin).map_err(|e| e.to_string())?;
+        let n = ev.n_modes();
+        Ok(Slave {
+            vars: variables(twin),
+            ev,
+            sim: Simulator::new(n, Hold::Zoh),
+            inputs: [0.0; 6],
+            start: [0.0; 6],
+            time: 0.0,
+            start_time: 0.0,
+            phase: Phase::Instantiated,
+        })
+    }
+
+    /// The variables in value-reference order.
+    pub fn vars(&self) -> &[Var] {
+        &self.vars
+    }
+
+    /// Current phase.
+    pub fn phase(&self) -> Phase {
+        self.phase
+    }
+
+    /// Current time.
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    fn slot(v: Var) -> Option<usize> {
+        match v {
+            Var::Force(a) => Some(a.index()),
+            Var::Pos(a) => Some(3 + a.index()),
+            Var::Disp(_) => None,
+        }
+    }
+
+    fn var(&self, vr: u32) -> Result<Var, String> {
+        self.vars
+            .get(vr as usize)
+            .copied()
+            .ok_or_else(|| format!("unknown value reference {vr} (this FMU has 0..{})", self.vars.len()))
+    }
+
+    /// `fmi2SetupExperiment`.
+    pub fn setup(&mut self, start_time: f64) -> Result<(), String> {
+        if self.phase != Phase::Instantiated {
+            return Err("fmi2SetupExperiment is only allowed right after instantiation or reset".into());
+        }
+        if !start_time.is_finite() {
+            return Err(format!("start time {start_time} is not finite"));
+        }
+        self.start_time = start_time;
+        self.time = start_time;
+        Ok(())
+    }
+
+    /// `fmi2EnterInitializationMode`.
+    pub fn enter_init(&mut self) -> Result<(), String> {
+        if self.phase != Phase::Instantiated {
+            return Err("fmi2EnterInitializationMode called twice or after initialization".into());
+        }
+        self.phase = Phase::Initialization;
+        Ok(())
+    }
+
+    /// `fmi2ExitInitializationMode`.
+    pub fn exit_init(&mut self) -> Result<(), String> {
+        if self.phase != Phase::Initialization {
+            return Err("fmi2ExitInitializationMode without fmi2EnterInitializationMode".into());
+        }
+        self.phase = Phase::StepComplete;
+        Ok(())
+    }
+
+    /// `fmi2Terminate`.
+    pub fn terminate(&mut self) -> Result<(), String> {
+        if self.phase != Phase::StepComplete {
+            return Err("fmi2Terminate is only allowed after initialization".into());
+        }
+        self.phase = Phase::Terminated;
+        Ok(())
+    }
+
+    /// `fmi2Reset`: back to the state right after instantiation.
+    pub fn reset(&mut self) {
+        self.sim.reset();
+        self.inputs = self.start;
+        self.time = 0.0;
+        self.start_time = 0.0;
+        self.phase = Phase::Instantiated;
+    }
+
+    /// `fmi2SetReal`.
+    pub fn set_real(&mut self, vrs: &[u32], values: &[f64]) -> Result<(), String> {
+        if self.phase == Phase::Terminated {
+            return Err("fmi2SetReal after fmi2Terminate".into());
+        }
+        for (vr, v) in vrs.iter().zip(values) {
+            let var = self.var(*vr)?;
+            let Some(i) = Self::slot(var) else {
+                return Err(format!("{} is an output and cannot be set", var.name()));
+            };
+            if !v.is_finite() {
+                return Err(format!("{} = {v} is not finite", var.name()));
+            }
+            self.inputs[i] = *v;
+        }
+        Ok(())
+    }
+
+    fn pose(&self) -> [f64; 3] {
+        [self.inputs[3], self.inputs[4], self.inputs[5]]
+    }
+
+    fn force(&self) -> [f64; 3] {
+        [self.inputs[0], self.inputs[1], self.inputs[2]]
+    }
+
+    /// The outputs dx, dy, dz now (state plus feedthrough at the current pose).
+    pub fn outputs(&mut self) -> [f64; 3] {
+        let pose = self.pose();
+        let u = self.force();
+        let model = self.ev.model_at(pose);
+        self.sim.output(model, &u)
+    }
+
+    /// `fmi2GetReal`.
+    pub fn get_real(&mut self, vrs: &[u32], out: &mut [f64]) -> Result<(), String> {
+        let y = self.outputs();
+        for (vr, o) in vrs.iter().zip(out.iter_mut()) {
+            let var = self.var(*vr)?;
+            *o = match var {
+                Var::Disp(a) => y[a.index()],
+                other => self.inputs[Self::slot(other).unwrap_or(0)],
+            };
+        }
+        Ok(())
+    }
+
+    /// `fmi2DoStep`.
+    pub fn do_step(&mut self, t: f64, h: f64) -> Result<(), String> {
+        if self.phase != Phase::StepComplete {
+            return Err("fmi2DoStep is only allowed after fmi2ExitInitializationMode and before fmi2Terminate".into());
+        }
+        if !(h >= 0.0 && h.is_finite() && t.is_finite()) {
+            return Err(format!("communication step {h} at {t} is not a finite non-negative number"));
+        }
+        let tol = 1e-9 * (1.0 + t.abs().max(self.time.abs()));
+        if (t - self.time).abs() > tol.max(1e-6 * h) {
+            return Err(format!(
+                "doStep at t = {t} but the slave is at {} (steps must follow each other)",
+                self.time
+            ));
+        }
+        if h > 0.0 {
+            let pose = self.pose();
+            let u = self.force();
+            let model = self.ev.model_at(pose);
+            self.sim.step(model, &u, &u, h);
+        }
+        self.time = t + h;
+        Ok(())
+    }
+
+    /// Snapshot for `fmi2GetFMUstate`.
+    pub fn snapshot(&self) -> Snapshot {
+        Snapshot {
+            time: self.time,
+            inputs: self.inputs,
+            state: self.sim.state().to_vec(),
+            phase_stepping: self.phase == Phase::StepComplete,
+        }
+    }
+
+    /// `fmi2SetFMUstate`.
+    pub fn restore(&mut self, s: &Snapshot) -> Result<(), String> {
+        if !self.sim.set_state(&s.state) {
+            return Err("FMU state belongs to another FMU (state size differs)".into());
+        }
+        self.time = s.time;
+        self.inputs = s.inputs;
+        if s.phase_stepping {
+            self.phase = Phase::StepComplete;
+        }
+        Ok(())
+    }
+}
