@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Every test of mtwin, from a fresh clone: formatting, lints, Rust tests, docs.
-# (Python importer tests join here once the FMU exists.)
+# Every test of mtwin, from a fresh clone: formatting, lints, Rust tests, docs, and the
+# FMU in real importers (fmpy, libcosimpy) from a pinned Python venv this script sets up.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 echo "== cargo fmt --check"
@@ -11,3 +11,7 @@ echo "== cargo test"
 cargo test --workspace
 echo "== cargo doc"
 RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps
+echo "== FMU in real importers (pytest: fmpy, libcosimpy)"
+./scripts/setup-python.sh
+cargo build --release --workspace --bins --examples
+.venv/bin/python -m pytest -q tests/python

@@ -26,7 +26,11 @@ pub fn model_description(twin: &Twin) -> ModelDescription {
         "mtwin digital twin of the TCP dynamics of '{}': {} pose(s), channels {}",
         twin.name,
         twin.poses.len(),
-        twin.channels.iter().map(|c| c.name()).collect::<Vec<_>>().join(",")
+        twin.channels
+            .iter()
+            .map(|c| c.name())
+            .collect::<Vec<_>>()
+            .join(",")
     ));
     md.generation_tool = Some(format!("mtwin {}", env!("CARGO_PKG_VERSION")));
     md.co_simulation.can_get_and_set_fmu_state = Some(true);
@@ -89,7 +93,9 @@ pub fn find_library() -> Result<PathBuf, identify::Error> {
             }
         }
     }
-    let ws = Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join("target");
+    let ws = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("..")
+        .join("target");
     for prof in ["release", "debug"] {
         dirs.push(ws.join(prof));
         dirs.push(ws.join(prof).join("deps"));
@@ -104,7 +110,11 @@ pub fn find_library() -> Result<PathBuf, identify::Error> {
     Err(identify::Error::Numerical(format!(
         "the FMU slave library {name} was not found (looked at {}); build it with \
          `cargo build --release -p mtwin-fmu` or set MTWIN_FMU_LIB",
-        tried.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", ")
+        tried
+            .iter()
+            .map(|p| p.display().to_string())
+            .collect::<Vec<_>>()
+            .join(", ")
     )))
 }
 

@@ -81,7 +81,10 @@ fn call(
             Fmi2Status::Error
         }
         Err(_) => {
-            inst.log(Fmi2Status::Fatal, &format!("{what}: internal error (panic)"));
+            inst.log(
+                Fmi2Status::Fatal,
+                &format!("{what}: internal error (panic)"),
+            );
             Fmi2Status::Fatal
         }
     }
@@ -175,12 +178,15 @@ fn instantiate(
     loc: Option<String>,
 ) -> Result<Slave, String> {
     if ty != 1 {
-        return Err("this FMU supports Co-Simulation only (fmuType must be fmi2CoSimulation)".into());
+        return Err(
+            "this FMU supports Co-Simulation only (fmuType must be fmi2CoSimulation)".into(),
+        );
     }
     let loc = loc.ok_or("fmuResourceLocation is NULL")?;
     let dir = resource_dir(&loc)?;
     let path = dir.join("twin.json");
-    let twin = Twin::load(&path).map_err(|e| format!("instance '{name}': cannot read the twin: {e}"))?;
+    let twin =
+        Twin::load(&path).map_err(|e| format!("instance '{name}': cannot read the twin: {e}"))?;
     let want = twin.guid();
     match guid {
         Some(g) if g == want => {}
@@ -337,7 +343,9 @@ pub unsafe extern "C" fn fmi2ExitInitializationMode(c: Fmi2Component) -> Fmi2Sta
 /// See the module docs.
 #[no_mangle]
 pub unsafe extern "C" fn fmi2Terminate(c: Fmi2Component) -> Fmi2Status {
-    call(c, "fmi2Terminate", |i| i.slave.terminate().map(|_| Fmi2Status::Ok))
+    call(c, "fmi2Terminate", |i| {
+        i.slave.terminate().map(|_| Fmi2Status::Ok)
+    })
 }
 
 /// `fmi2Reset`.
@@ -528,7 +536,10 @@ pub unsafe extern "C" fn fmi2SetFMUstate(c: Fmi2Component, state: Fmi2FmuState) 
 /// # Safety
 /// See the module docs.
 #[no_mangle]
-pub unsafe extern "C" fn fmi2FreeFMUstate(c: Fmi2Component, state: *mut Fmi2FmuState) -> Fmi2Status {
+pub unsafe extern "C" fn fmi2FreeFMUstate(
+    c: Fmi2Component,
+    state: *mut Fmi2FmuState,
+) -> Fmi2Status {
     call(c, "fmi2FreeFMUstate", |_| {
         if state.is_null() {
             return Ok(Fmi2Status::Ok);
@@ -585,7 +596,10 @@ pub unsafe extern "C" fn fmi2SerializeFMUstate(
         let s = unsafe { &*(state as *const Snapshot) };
         let b = s.to_bytes();
         if size < b.len() {
-            return Err(format!("buffer of {size} bytes is too small ({} needed)", b.len()));
+            return Err(format!(
+                "buffer of {size} bytes is too small ({} needed)",
+                b.len()
+            ));
         }
         // SAFETY: buffer valid for `size` bytes (NULL detected).
         let out = unsafe { slice_mut(bytes as *mut u8, b.len(), "serializedState") }?;
@@ -687,7 +701,9 @@ pub unsafe extern "C" fn fmi2DoStep(
     h: Fmi2Real,
     _no_set_prior: Fmi2Boolean,
 ) -> Fmi2Status {
-    call(c, "fmi2DoStep", |i| i.slave.do_step(t, h).map(|_| Fmi2Status::Ok))
+    call(c, "fmi2DoStep", |i| {
+        i.slave.do_step(t, h).map(|_| Fmi2Status::Ok)
+    })
 }
 
 /// `fmi2CancelStep` (steps are synchronous).
@@ -728,7 +744,9 @@ pub unsafe extern "C" fn fmi2GetRealStatus(
 ) -> Fmi2Status {
     call(c, "fmi2GetRealStatus", |i| {
         if kind != 2 {
-            return Err(format!("status kind {kind} has no real value (only fmi2LastSuccessfulTime)"));
+            return Err(format!(
+                "status kind {kind} has no real value (only fmi2LastSuccessfulTime)"
+            ));
         }
         if value.is_null() {
             return Err("value is NULL".into());
@@ -766,7 +784,9 @@ pub unsafe extern "C" fn fmi2GetBooleanStatus(
 ) -> Fmi2Status {
     call(c, "fmi2GetBooleanStatus", |_| {
         if kind != 3 {
-            return Err(format!("status kind {kind} has no boolean value (only fmi2Terminated)"));
+            return Err(format!(
+                "status kind {kind} has no boolean value (only fmi2Terminated)"
+            ));
         }
         if value.is_null() {
             return Err("value is NULL".into());

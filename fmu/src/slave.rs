@@ -107,7 +107,9 @@ impl Snapshot {
             *v = f(17 + 8 * k);
         }
         let base = 17 + 48;
-        let state = (0..n).map(|k| [f(base + 16 * k), f(base + 16 * k + 8)]).collect();
+        let state = (0..n)
+            .map(|k| [f(base + 16 * k), f(base + 16 * k + 8)])
+            .collect();
         Ok(Snapshot {
             time,
             inputs,
@@ -172,16 +174,20 @@ impl Slave {
     }
 
     fn var(&self, vr: u32) -> Result<Var, String> {
-        self.vars
-            .get(vr as usize)
-            .copied()
-            .ok_or_else(|| format!("unknown value reference {vr} (this FMU has 0..{})", self.vars.len()))
+        self.vars.get(vr as usize).copied().ok_or_else(|| {
+            format!(
+                "unknown value reference {vr} (this FMU has 0..{})",
+                self.vars.len()
+            )
+        })
     }
 
     /// `fmi2SetupExperiment`.
     pub fn setup(&mut self, start_time: f64) -> Result<(), String> {
         if self.phase != Phase::Instantiated {
-            return Err("fmi2SetupExperiment is only allowed right after instantiation or reset".into());
+            return Err(
+                "fmi2SetupExperiment is only allowed right after instantiation or reset".into(),
+            );
         }
         if !start_time.is_finite() {
             return Err(format!("start time {start_time} is not finite"));
@@ -280,7 +286,9 @@ impl Slave {
             return Err("fmi2DoStep is only allowed after fmi2ExitInitializationMode and before fmi2Terminate".into());
         }
         if !(h >= 0.0 && h.is_finite() && t.is_finite()) {
-            return Err(format!("communication step {h} at {t} is not a finite non-negative number"));
+            return Err(format!(
+                "communication step {h} at {t} is not a finite non-negative number"
+            ));
         }
         let tol = 1e-9 * (1.0 + t.abs().max(self.time.abs()));
         if (t - self.time).abs() > tol.max(1e-6 * h) {

@@ -45,25 +45,49 @@ pub struct ModelDescription {
     #[serde(rename = "@guid")]
     pub guid: String,
     /// Description.
-    #[serde(rename = "@description", skip_serializing_if = "Option::is_none", default)]
+    #[serde(
+        rename = "@description",
+        skip_serializing_if = "Option::is_none",
+        default
+    )]
     pub description: Option<String>,
     /// Generating tool.
-    #[serde(rename = "@generationTool", skip_serializing_if = "Option::is_none", default)]
+    #[serde(
+        rename = "@generationTool",
+        skip_serializing_if = "Option::is_none",
+        default
+    )]
     pub generation_tool: Option<String>,
     /// "flat" or "structured".
-    #[serde(rename = "@variableNamingConvention", skip_serializing_if = "Option::is_none", default)]
+    #[serde(
+        rename = "@variableNamingConvention",
+        skip_serializing_if = "Option::is_none",
+        default
+    )]
     pub variable_naming_convention: Option<String>,
     /// Number of event indicators (0 for co-simulation).
-    #[serde(rename = "@numberOfEventIndicators", skip_serializing_if = "Option::is_none", default)]
+    #[serde(
+        rename = "@numberOfEventIndicators",
+        skip_serializing_if = "Option::is_none",
+        default
+    )]
     pub number_of_event_indicators: Option<u32>,
     /// `<CoSimulation>`.
     #[serde(rename = "CoSimulation")]
     pub co_simulation: CoSimulation,
     /// `<UnitDefinitions>`.
-    #[serde(rename = "UnitDefinitions", skip_serializing_if = "Option::is_none", default)]
+    #[serde(
+        rename = "UnitDefinitions",
+        skip_serializing_if = "Option::is_none",
+        default
+    )]
     pub unit_definitions: Option<UnitDefinitions>,
     /// `<DefaultExperiment>`.
-    #[serde(rename = "DefaultExperiment", skip_serializing_if = "Option::is_none", default)]
+    #[serde(
+        rename = "DefaultExperiment",
+        skip_serializing_if = "Option::is_none",
+        default
+    )]
     pub default_experiment: Option<DefaultExperiment>,
     /// `<ModelVariables>`.
     #[serde(rename = "ModelVariables")]
@@ -80,19 +104,39 @@ pub struct CoSimulation {
     #[serde(rename = "@modelIdentifier")]
     pub model_identifier: String,
     /// Variable communication step sizes are handled.
-    #[serde(rename = "@canHandleVariableCommunicationStepSize", skip_serializing_if = "Option::is_none", default)]
+    #[serde(
+        rename = "@canHandleVariableCommunicationStepSize",
+        skip_serializing_if = "Option::is_none",
+        default
+    )]
     pub can_handle_variable_communication_step_size: Option<bool>,
     /// `fmi2GetFMUstate`/`fmi2SetFMUstate` supported.
-    #[serde(rename = "@canGetAndSetFMUstate", skip_serializing_if = "Option::is_none", default)]
+    #[serde(
+        rename = "@canGetAndSetFMUstate",
+        skip_serializing_if = "Option::is_none",
+        default
+    )]
     pub can_get_and_set_fmu_state: Option<bool>,
     /// FMU state serialisation supported.
-    #[serde(rename = "@canSerializeFMUstate", skip_serializing_if = "Option::is_none", default)]
+    #[serde(
+        rename = "@canSerializeFMUstate",
+        skip_serializing_if = "Option::is_none",
+        default
+    )]
     pub can_serialize_fmu_state: Option<bool>,
     /// The slave does not use the importer's memory functions.
-    #[serde(rename = "@canNotUseMemoryManagementFunctions", skip_serializing_if = "Option::is_none", default)]
+    #[serde(
+        rename = "@canNotUseMemoryManagementFunctions",
+        skip_serializing_if = "Option::is_none",
+        default
+    )]
     pub can_not_use_memory_management_functions: Option<bool>,
     /// Several instances per process are possible.
-    #[serde(rename = "@canBeInstantiatedOnlyOncePerProcess", skip_serializing_if = "Option::is_none", default)]
+    #[serde(
+        rename = "@canBeInstantiatedOnlyOncePerProcess",
+        skip_serializing_if = "Option::is_none",
+        default
+    )]
     pub can_be_instantiated_only_once_per_process: Option<bool>,
 }
 
@@ -133,7 +177,11 @@ pub struct BaseUnit {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct DefaultExperiment {
     /// Start time in s.
-    #[serde(rename = "@startTime", skip_serializing_if = "Option::is_none", default)]
+    #[serde(
+        rename = "@startTime",
+        skip_serializing_if = "Option::is_none",
+        default
+    )]
     pub start_time: Option<f64>,
     /// Stop time in s.
     #[serde(rename = "@stopTime", skip_serializing_if = "Option::is_none", default)]
@@ -161,13 +209,25 @@ pub struct ScalarVariable {
     #[serde(rename = "@valueReference")]
     pub value_reference: u32,
     /// Description.
-    #[serde(rename = "@description", skip_serializing_if = "Option::is_none", default)]
+    #[serde(
+        rename = "@description",
+        skip_serializing_if = "Option::is_none",
+        default
+    )]
     pub description: Option<String>,
     /// input, output, parameter, local, independent, ...
-    #[serde(rename = "@causality", skip_serializing_if = "Option::is_none", default)]
+    #[serde(
+        rename = "@causality",
+        skip_serializing_if = "Option::is_none",
+        default
+    )]
     pub causality: Option<String>,
     /// continuous, discrete, fixed, tunable, constant.
-    #[serde(rename = "@variability", skip_serializing_if = "Option::is_none", default)]
+    #[serde(
+        rename = "@variability",
+        skip_serializing_if = "Option::is_none",
+        default
+    )]
     pub variability: Option<String>,
     /// exact, approx, calculated (absent for inputs).
     #[serde(rename = "@initial", skip_serializing_if = "Option::is_none", default)]
@@ -214,7 +274,11 @@ pub struct Unknown {
     #[serde(rename = "@index")]
     pub index: u32,
     /// Space-separated 1-based indices of the variables it depends on.
-    #[serde(rename = "@dependencies", skip_serializing_if = "Option::is_none", default)]
+    #[serde(
+        rename = "@dependencies",
+        skip_serializing_if = "Option::is_none",
+        default
+    )]
     pub dependencies: Option<String>,
 }
 
@@ -247,7 +311,13 @@ impl ModelDescription {
     /// Adds a continuous real input (with `start`) or output (listed in Outputs and
     /// InitialUnknowns, depending on every input declared before it). Value references
     /// are assigned in order from 0.
-    pub fn with_real(mut self, name: &str, causality: &str, start: Option<f64>, unit: Option<&str>) -> Self {
+    pub fn with_real(
+        mut self,
+        name: &str,
+        causality: &str,
+        start: Option<f64>,
+        unit: Option<&str>,
+    ) -> Self {
         let vr = self.model_variables.variables.len() as u32;
         let is_output = causality == "output";
         self.model_variables.variables.push(ScalarVariable {
@@ -288,7 +358,9 @@ impl ModelDescription {
         let mut ser = quick_xml::se::Serializer::new(&mut body);
         ser.indent(' ', 2);
         self.serialize(ser).map_err(|e| Error(e.to_string()))?;
-        Ok(format!("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n{body}\n"))
+        Ok(format!(
+            "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n{body}\n"
+        ))
     }
 
     /// Parses XML text.

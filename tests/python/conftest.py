@@ -1,0 +1,39 @@
+"""Builds the FMU the tests load: generated campaign -> `mtwin identify` -> `mtwin export`,
+and the reference prediction `mtwin simulate --hold zoh` on a record with moving axes."""
+import io
+import os
+import subprocess
+import pathlib
+
+import numpy as np
+import pytest
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+TARGET = pathlib.Path(os.environ.get("CARGO_TARGET_DIR", ROOT / "target"))
+MTWIN = TARGET / "release" / "mtwin"
+FIXTURE = TARGET / "release" / "examples" / "fmu_fixture"
+
+
+def run(*args):
+    r = subprocess.run([str(a) for a in args], capture_output=True, text=True)
+    assert r.returncode == 0, f"{args}: {r.stderr}"
+    return r
+
+
+def load_csv(path):
+    """A SPEC time-series CSV (`#` comment lines, then a header) as a structured array."""
+    lines = [l for l in pathlib.Path(path).read_text().splitlines() if not l.startswith("#")]
+    return np.genfromtxt(io.StringIO("\n".join(lines)), delimiter=",", names=True)
+
+
+@pytest.fixture(scope="session")
+def built(tmp_path_factory):
+    d = tmp_path_factory.mktemp("fmu")
+    run(FIXTURE, d)
+    campaign = sorted((d / "campaign").glob("*.csv"))
+    run(MTWIN, "--quiet", "identify", *campaign, "--fmin", "30", "--fmax", "2500", "--out", d / "twin.json")
+    run(MTWIN, "--quiet", "export", "--twin", d / "twin.json", "--out", d / "twin.fmu")
+    run(MTWIN, "--quiet", "simulate", "--twin", d / "twin.json", d / "moving.csv", "--out", d / "pred.csv")
+    data = load_csv(d / "moving.csv")
+    pred = load_csv(d / "pred.csv")
+    return {"dir": d, "fmu": str(d / "twin.fmu"), "data": data, "pred": pred}
