@@ -1,5 +1,6 @@
 //! Argument definitions and dispatch.
 
+mod demo;
 mod diagnose;
 mod eval;
 mod export;
@@ -33,6 +34,11 @@ pub struct Cli {
 /// The commands (SPEC section 1).
 #[derive(Debug, Subcommand)]
 pub enum Cmd {
+    /// The whole mission on the built-in virtual machine, no input needed: campaign,
+    /// twin, wear and milling, refit, diagnosis, FMUs, lobes, report.
+    ///
+    /// Example: mtwin demo --out mtwin-demo
+    Demo(demo::Args),
     /// FRF estimate (H1 by default) and coherence from force/response time series.
     ///
     /// Example: mtwin frf impact_x.csv impact_y.csv --out frf.csv
@@ -76,6 +82,7 @@ pub fn run(cli: Cli) -> Result<()> {
         json: cli.json,
     };
     match cli.cmd {
+        Cmd::Demo(a) => demo::run(a, &out),
         Cmd::Frf(a) => frf::run(a, &out),
         Cmd::Identify(a) => identify_cmd::run(a, &out),
         Cmd::Eval(a) => eval::run(a, &out),
