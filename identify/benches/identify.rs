@@ -8,7 +8,7 @@
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use identify::axis::{Axis, Channel};
-use identify::frf::{fit_percent, Frf, FrfChannel};
+use identify::frf::{fit_percent, Frf};
 use identify::model::{ChannelModel, ModalModel, Mode, ModeNum};
 use identify::rational_fit::{fit_frf, FitOptions};
 use num_complex::Complex64;

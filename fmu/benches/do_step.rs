@@ -1,0 +1,62 @@
+//! One doStep of the slave core (no C layer): 2 force axes, 9 modes, pose interpolation
+//! on a 3×3×2 grid twin (tensor splines), the axes moving every step. Target < 1 µs.
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use identify::axis::Axis;
+use identify::twin::{ChannelFit, OrderInfo, PoseModel, Twin};
+use mtwin_fmu::slave::Slave;
+use vmachine::structure::ModalMachine;
+
+fn twin() -> Twin {
+    let m = ModalMachine::default_machine();
+    let axes = [Axis::X, Axis::Y];
+    let poses: Vec<PoseModel> = m
+        .grid([3, 3, 2])
+        .into_iter()
+        .map(|p| {
+            let model = m.model_at(p, &axes);
+            PoseModel {
+                pose: p,
+                frf: model.frf(&[10.0, 20.0]),
+                model,
+                band_hz: [10.0, 20.0],
+                fit: Vec::<ChannelFit>::new(),
+                order: OrderInfo {
+                    modes: 9,
+                    automatic: false,
+                    stable_freqs_hz: vec![],
+                },
+                sources: vec![],
+                frf_exp_window_sigma: None,
+            }
+        })
+        .collect();
+    Twin::new("bench", poses)
+}
+
+fn bench(c: &mut Criterion) {
+    let tw = twin();
+    let mut s = Slave::new(&tw).expect("slave");
+    s.enter_init().expect("init");
+    s.exit_init().expect("init");
+    let (vfx, vfy, vx, vy) = (0u32, 1u32, 2u32, 3u32);
+    let dt = 1e-4;
+    let mut t = 0.0;
+    let mut k = 0u64;
+    c.bench_function("do_step_9_modes_2_axes_moving_pose", |b| {
+        b.iter(|| {
+            k += 1;
+            let x = 0.3 + 0.2 * ((k % 1000) as f64 * 1e-3);
+            s.set_real(&[vfx, vfy, vx, vy], &[100.0, -50.0, x, 0.2])
+                .expect("set");
+            let mut y = [0.0; 2];
+            s.get_real(&[5, 6], &mut y).expect("get");
+            s.do_step(t, dt).expect("step");
+            t += dt;
+            y
+        })
+    });
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
