@@ -70,6 +70,9 @@ pub struct DiagnoseOptions {
     pub chi_none: f64,
     /// Smallest held-out fit gain [percentage points] that counts as a real improvement.
     pub min_gain_pct: f64,
+    /// Largest local misfit (RMS over ±2.5 % of frequency, in standard errors) that
+    /// still counts as noise (default 4).
+    pub chi_local: f64,
 }
 
 impl Default for DiagnoseOptions {
@@ -79,6 +82,7 @@ impl Default for DiagnoseOptions {
             min_coherence: 0.8,
             chi_none: 3.0,
             min_gain_pct: 0.5,
+            chi_local: 4.0,
         }
     }
 }
@@ -410,6 +414,46 @@ pub fn chi(model: &ModalModel, pts: &[Points], delay_s: f64) -> f64 {
     } else {
         (s / n as f64).sqrt()
     }
+}
+
+/// Largest local RMS misfit in standard errors: over every window of ±2.5 % around a
+/// point (at least 5 points), per channel. A missing or shifted resonance is local; the
+/// global RMS of [`chi`] dilutes it over the whole band.
+pub fn chi_local(model: &ModalModel, pts: &[Points], delay_s: f64) -> f64 {
+    let mut worst: f64 = 0.0;
+    for p in pts {
+        let ci = model.channel_index(p.channel);
+        let r2: Vec<f64> = p
+            .freqs_hz
+            .iter()
+            .zip(&p.h)
+            .zip(&p.sigma)
+            .map(|((f, h), sg)| {
+                let m = ci.map_or(Complex64::new(0.0, 0.0), |ci| {
+                    model.eval_hz(ci, *f) * Complex64::from_polar(1.0, -2.0 * PI * f * delay_s)
+                });
+                ((m - h) / sg).norm_sqr() / 2.0
+            })
+            .collect();
+        let f = &p.freqs_hz;
+        let (mut lo, mut hi) = (0usize, 0usize);
+        let mut acc = 0.0;
+        for i in 0..f.len() {
+            while hi < f.len() && f[hi] <= f[i] * 1.025 {
+                acc += r2[hi];
+                hi += 1;
+            }
+            while f[lo] < f[i] * 0.975 {
+                acc -= r2[lo];
+                lo += 1;
+            }
+            let n = hi - lo;
+            if n >= 5 {
+                worst = worst.max((acc.max(0.0) / n as f64).sqrt());
+            }
+        }
+    }
+    worst
 }
 
 fn band_of(twin: &Twin) -> (f64, f64) {
@@ -891,6 +935,9 @@ pub fn diagnose(
     let mut evl = TwinEvaluator::new(twin)?;
     let model = evl.model_at(pose).clone();
     let chi0 = chi(&model, &pts, twin.extensions.delay_s.unwrap_or(0.0));
+    let chi_loc = chi_local(&model, &pts, twin.extensions.delay_s.unwrap_or(0.0));
+    // a misfit: globally (RMS) or in some band (a resonance is local)
+    let misfit = chi0 > opts.chi_none || chi_loc > opts.chi_local;
     let fit_before = holdout_fit(twin, &splits)?;
     let holdout = format!(
         "held out: {} (the last {} of each record, from t = {})",
@@ -912,7 +959,7 @@ pub fn diagnose(
     );
     let dt = records[0].dt;
     let mut cands: Vec<Cand> = Vec::new();
-    if chi0 > opts.chi_none {
+    if misfit {
         cands.extend(cand_mode_change(twin, &model, &pts));
         cands.extend(cand_unmodeled_mode(twin, &model, &pts));
         cands.extend(cand_time_delay(twin, &model, &pts, dt));
@@ -941,7 +988,7 @@ pub fn diagnose(
             let c = &cands[i];
             (c.cause, c.details.clone(), c.twin.clone(), fit)
         }
-        None if chi0 <= opts.chi_none => (Cause::None, Map::new(), twin.clone(), fit_before),
+        None if !misfit => (Cause::None, Map::new(), twin.clone(), fit_before),
         None => {
             // where the misfit sits: the 10–90 % quantiles of χ² over frequency
             let mut contrib: Vec<(f64, f64)> = Vec::new();
