@@ -159,7 +159,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     // --- 3. refit after a 10 % loss of k1
     let worn = chain.clone().with_k1_factor(0.9);
     let fs = d.fs_sim();
-    let n = (1800.0 * fs) as usize;
+    let n = (3600.0 * fs) as usize;
     // milling-like force: tooth passing at 2.9 Hz with harmonics, plus broadband share
     let tooth = 2.9;
     let mut f: Vec<f64> = (0..n)
@@ -201,6 +201,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             for m in &rep.modes {
                 eprintln!("{m:?}");
             }
+            let near: Vec<f64> = rep
+                .lines_hz
+                .iter()
+                .copied()
+                .filter(|f| (11.0..14.5).contains(f))
+                .collect();
+            eprintln!(
+                "{} lines in 11-14.5 Hz: {:?}",
+                near.len(),
+                &near[..near.len().min(20)]
+            );
         }
         println!(
             "{:?} method: updated model vs analytic changed chain {fit:.2} % (paper 95.23 %, target >= 99 %); drift check fit {:.1} %, {} lines used, {:.0} ms",

@@ -186,7 +186,7 @@ pub fn time_fit(twin: &Twin, records: &[TimeSeries]) -> Result<f64> {
     Ok(fit_percent_real(&meas, &sim))
 }
 
-/// Welch segment length: lines no wider than half the narrowest half-power bandwidth of
+/// Welch segment length: lines no wider than an eighth of the narrowest half-power bandwidth of
 /// the twin's modes below 0.4 fs (so peaks are resolved), but at least 4 segments in the
 /// record (7 averages with 50 % overlap).
 fn default_nfft(ts: &TimeSeries, model: &ModalModel) -> usize {
@@ -196,7 +196,7 @@ fn default_nfft(ts: &TimeSeries, model: &ModalModel) -> usize {
         .modes
         .iter()
         .filter(|m| m.freq_hz() < 0.4 * fs)
-        .map(|m| m.zeta * m.freq_hz())
+        .map(|m| 0.25 * m.zeta * m.freq_hz())
         .fold(fs / 256.0, f64::min)
         .max(fs / (1usize << 20) as f64);
     let mut nfft = ((fs / df).ceil() as usize).next_power_of_two();
@@ -204,6 +204,18 @@ fn default_nfft(ts: &TimeSeries, model: &ModalModel) -> usize {
         nfft /= 2;
     }
     nfft.max(64)
+}
+
+/// Lines mtwin's modal update uses: every line whose coherence reaches the limit (the
+/// cross-spectral H1 is valid wherever the coherence is high, whatever the PSD), thinned
+/// to at most ~4000 lines.
+fn coherent_lines(sp: &OperatingSpectra, opts: &RefitOptions) -> Vec<usize> {
+    let n = sp.freqs_hz.len();
+    let ok: Vec<usize> = (1..n)
+        .filter(|&l| sp.coherence.iter().all(|(_, g)| g[l] >= opts.min_coherence))
+        .collect();
+    let step = ok.len().div_ceil(4000).max(1);
+    ok.into_iter().step_by(step).collect()
 }
 
 /// Lines the paper would insert: response PSD above the threshold and coherence high.
@@ -278,30 +290,26 @@ fn excited_modes(model: &ModalModel, pts: &[Points]) -> Vec<usize> {
     for k in 0..model.modes.len() {
         let m = model.modes[k];
         let fk = m.freq_hz();
-        let reach = (6.0 * m.zeta * fk).max(0.15 * fk);
-        let mut below = false;
-        let mut above = false;
-        let mut dominant = false;
+        // the resonance region: a few half-power bandwidths, or 5 % for a shifted mode
+        let reach = (6.0 * m.zeta * fk).max(0.05 * fk);
+        let mut near = 0usize;
         for p in pts {
             let Some(ci) = model.channel_index(p.channel) else {
                 continue;
             };
             let n = model.channels[ci].num[k];
             for f in &p.freqs_hz {
+                if (f - fk).abs() > reach {
+                    continue;
+                }
                 let s = Complex64::new(0.0, 2.0 * PI * f);
                 let hk = (s * n.b1 + n.b0) / m.den(s);
                 if hk.norm() >= 0.3 * model.eval_s(ci, s).norm() {
-                    dominant = true;
-                    if *f <= fk && fk - f <= reach {
-                        below = true;
-                    }
-                    if *f >= fk && f - fk <= reach {
-                        above = true;
-                    }
+                    near += 1;
                 }
             }
         }
-        if dominant && (below || above) {
+        if near >= 3 {
             free.push(k);
         }
     }
@@ -460,6 +468,9 @@ pub fn refit(
         .unwrap_or(0);
     let (new, new_frf) = match opts.method {
         RefitMethod::Modal => {
+            let lines_c = coherent_lines(&sp, opts);
+            let pts = operating_points(&sp, &lines_c, &old);
+            report.lines_hz = lines_c.iter().map(|&l| sp.freqs_hz[l]).collect();
             let free = excited_modes(&old, &pts);
             let res = update_modes(&old, &free, &pts, Prior::default(), 60)?;
             let prev = &twin.poses[near].frf;
