@@ -148,6 +148,8 @@ pub struct Simulator {
     /// `state[k * 3 + j]` = (q, q̇) of mode k driven by force axis j.
     state: Vec<[f64; 2]>,
     steps: Vec<SectionStep>,
+    /// The modes and step the cached `steps` were built for.
+    cached: Option<(Vec<Mode>, f64)>,
 }
 
 impl Simulator {
@@ -158,6 +160,7 @@ impl Simulator {
             n_modes,
             state: vec![[0.0; 2]; 3 * n_modes],
             steps: Vec::with_capacity(n_modes),
+            cached: None,
         }
     }
 
@@ -192,13 +195,28 @@ impl Simulator {
     /// If `model` has a different number of modes than the simulator was built for.
     pub fn step(&mut self, model: &ModalModel, u0: &[f64; 3], u1: &[f64; 3], h: f64) {
         assert_eq!(model.modes.len(), self.n_modes, "mode count changed");
-        self.steps.clear();
-        self.steps.extend(
-            model
-                .modes
-                .iter()
-                .map(|m| SectionStep::new(m, h, self.hold)),
-        );
+        // rebuild the exact discretisation only when the modes or the step changed
+        let same = self
+            .cached
+            .as_ref()
+            .is_some_and(|(m, hh)| *hh == h && m == &model.modes);
+        if !same {
+            self.steps.clear();
+            self.steps.extend(
+                model
+                    .modes
+                    .iter()
+                    .map(|m| SectionStep::new(m, h, self.hold)),
+            );
+            match &mut self.cached {
+                Some((m, hh)) => {
+                    m.clear();
+                    m.extend_from_slice(&model.modes);
+                    *hh = h;
+                }
+                None => self.cached = Some((model.modes.clone(), h)),
+            }
+        }
         for (k, st) in self.steps.iter().enumerate() {
             for j in 0..3 {
                 if u0[j] != 0.0 || u1[j] != 0.0 || self.state[k * 3 + j] != [0.0, 0.0] {
