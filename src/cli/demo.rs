@@ -290,14 +290,16 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
 
     // 7. lobes before / after
     out.say("7/7 stability lobes before and after the refit ...");
-    for (name, tw) in [
-        ("lobes_before", &twin_path),
-        ("lobes_after_refit", &refit_path),
+    let corner = [0.0, 0.6, 0.0];
+    for (name, tw, at) in [
+        ("lobes_before", &twin_path, centre),
+        ("lobes_after_refit", &refit_path, centre),
+        ("lobes_corner", &twin_path, corner),
     ] {
         let r = lobes::run(
             lobes::Args {
                 twin: tw.clone(),
-                at: centre,
+                at,
                 out: dir.join(format!("{name}.csv")),
                 teeth: 3,
                 diameter: 0.016,
@@ -336,8 +338,9 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
         <li><a href=\"diagnosis/report.html\">diagnosis/report.html</a> and <code>diagnosis/diagnosis.json</code></li>\
         <li><code>twin.json</code>, <code>twin_refit.json</code> (with history), <code>twin.fmu</code>, <code>twin_refit.fmu</code></li>\
         <li><code>data/</code> — every generated CSV: rerun any step by hand, e.g. <code>mtwin identify data/campaign/*.csv --fmin 30 --fmax 2500 --out t.json</code></li>\
-        </ul><h2>Stability lobes at the workspace centre</h2>\
-        <p>Before the refit:</p><img src=\"lobes_before.svg\" alt=\"lobes before\"><p>After the refit (worn mode):</p><img src=\"lobes_after_refit.svg\" alt=\"lobes after\">");
+        </ul><h2>Stability lobes (3 teeth, half immersion, Kt 600 MPa)</h2>\
+        <p>Before the refit:</p><img src=\"lobes_before.svg\" alt=\"lobes before\"><p>After the refit (worn mode):</p><img src=\"lobes_after_refit.svg\" alt=\"lobes after\">\
+        <p>Before the refit with the axes at (0, 0.6, 0) m instead of the centre: the modes move with the axes, and so do the lobes.</p><img src=\"lobes_corner.svg\" alt=\"lobes at a corner\">");
     identify::atomic::write_atomic(
         &dir.join("index.html"),
         page("mtwin demo", &html).as_bytes(),
