@@ -4,35 +4,12 @@
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use identify::axis::Axis;
-use identify::twin::{ChannelFit, OrderInfo, PoseModel, Twin};
+use identify::twin::Twin;
 use mtwin_fmu::slave::Slave;
 use vmachine::structure::ModalMachine;
 
 fn twin() -> Twin {
-    let m = ModalMachine::default_machine();
-    let axes = [Axis::X, Axis::Y];
-    let poses: Vec<PoseModel> = m
-        .grid([3, 3, 2])
-        .into_iter()
-        .map(|p| {
-            let model = m.model_at(p, &axes);
-            PoseModel {
-                pose: p,
-                frf: model.frf(&[10.0, 20.0]),
-                model,
-                band_hz: [10.0, 20.0],
-                fit: Vec::<ChannelFit>::new(),
-                order: OrderInfo {
-                    modes: 9,
-                    automatic: false,
-                    stable_freqs_hz: vec![],
-                },
-                sources: vec![],
-                frf_exp_window_sigma: None,
-            }
-        })
-        .collect();
-    Twin::new("bench", poses)
+    ModalMachine::default_machine().exact_twin([3, 3, 2], &[Axis::X, Axis::Y])
 }
 
 fn bench(c: &mut Criterion) {

@@ -3,7 +3,7 @@
 //! calls in any order — every call returns a status, none crashes the host.
 
 use identify::axis::Axis;
-use identify::twin::{OrderInfo, PoseModel, Twin};
+use identify::twin::Twin;
 use libloading::{Library, Symbol};
 use std::ffi::{c_char, c_int, c_void, CString};
 use std::path::PathBuf;
@@ -24,30 +24,7 @@ fn lib_path() -> PathBuf {
 }
 
 fn twin_dir() -> (tempfile::TempDir, Twin) {
-    let m = ModalMachine::default_machine();
-    let axes = [Axis::X, Axis::Y];
-    let poses: Vec<PoseModel> = m
-        .grid([2, 2, 1])
-        .into_iter()
-        .map(|p| {
-            let model = m.model_at(p, &axes);
-            PoseModel {
-                pose: p,
-                frf: model.frf(&[10.0, 20.0]),
-                model,
-                band_hz: [10.0, 20.0],
-                fit: vec![],
-                order: OrderInfo {
-                    modes: 9,
-                    automatic: false,
-                    stable_freqs_hz: vec![],
-                },
-                sources: vec![],
-                frf_exp_window_sigma: None,
-            }
-        })
-        .collect();
-    let twin = Twin::new("ffi test", poses);
+    let twin = ModalMachine::default_machine().exact_twin([2, 2, 1], &[Axis::X, Axis::Y]);
     let d = tempfile::tempdir().expect("tmp");
     let res = d.path().join("res dir ü");
     std::fs::create_dir_all(&res).expect("mkdir");

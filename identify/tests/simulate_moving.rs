@@ -9,7 +9,6 @@ use identify::frf::fit_percent_real;
 use identify::interpolate::{simulate_twin, TwinEvaluator};
 use identify::simulate::{force_rows, Hold};
 use identify::timeseries::ResponseKind;
-use identify::twin::{OrderInfo, PoseModel, Twin};
 use vmachine::daq::{acquire, simulate_machine, Daq};
 use vmachine::excitation::noise;
 use vmachine::structure::ModalMachine;
@@ -18,28 +17,7 @@ use vmachine::structure::ModalMachine;
 fn twin_simulation_follows_the_machine_while_the_axes_move() {
     let m = ModalMachine::default_machine();
     let axes = [Axis::X, Axis::Y];
-    let poses: Vec<PoseModel> = m
-        .grid([3, 3, 2])
-        .into_iter()
-        .map(|p| {
-            let model = m.model_at(p, &axes);
-            PoseModel {
-                pose: p,
-                frf: model.frf(&[10.0, 20.0]),
-                model,
-                band_hz: [10.0, 20.0],
-                fit: vec![],
-                order: OrderInfo {
-                    modes: m.modes.len(),
-                    automatic: false,
-                    stable_freqs_hz: vec![],
-                },
-                sources: vec![],
-                frf_exp_window_sigma: None,
-            }
-        })
-        .collect();
-    let twin = Twin::new("exact", poses);
+    let twin = m.exact_twin([3, 3, 2], &axes);
     let daq = Daq {
         force_noise: 0.0,
         response_noise: 0.0,

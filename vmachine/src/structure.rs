@@ -188,6 +188,35 @@ impl ModalMachine {
         self
     }
 
+    /// A twin made of the machine's exact models at the poses of [`ModalMachine::grid`]
+    /// `n` (channels over `axes`): the ideal identification, for testing interpolation,
+    /// simulation and the FMU against the machine itself.
+    pub fn exact_twin(&self, n: [usize; 3], axes: &[Axis]) -> identify::twin::Twin {
+        use identify::twin::{OrderInfo, PoseModel, Twin};
+        let poses = self
+            .grid(n)
+            .into_iter()
+            .map(|p| {
+                let model = self.model_at(p, axes);
+                PoseModel {
+                    pose: p,
+                    frf: model.frf(&[10.0, 20.0]),
+                    model,
+                    band_hz: [10.0, 20.0],
+                    fit: vec![],
+                    order: OrderInfo {
+                        modes: self.modes.len(),
+                        automatic: false,
+                        stable_freqs_hz: vec![],
+                    },
+                    sources: vec![],
+                    frf_exp_window_sigma: None,
+                }
+            })
+            .collect();
+        Twin::new("exact virtual machine", poses)
+    }
+
     /// A regular grid of poses, `n[i]` values along axis `i` spanning the workspace.
     pub fn grid(&self, n: [usize; 3]) -> Vec<[f64; 3]> {
         let vals = |i: usize| -> Vec<f64> {
