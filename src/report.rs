@@ -106,6 +106,23 @@ pub fn plot(
                 }
             }};
         }
+        // mesh, series and legend, the same for both axis types
+        macro_rules! finish {
+            ($chart:expr, $fmt:expr) => {{
+                let _ = $chart
+                    .configure_mesh()
+                    .x_desc(xlabel)
+                    .y_desc(ylabel)
+                    .y_label_formatter(&$fmt)
+                    .draw();
+                draw!($chart);
+                let _ = $chart
+                    .configure_series_labels()
+                    .background_style(WHITE.mix(0.8))
+                    .border_style(BLACK)
+                    .draw();
+            }};
+        }
         match yscale {
             Scale::Log => {
                 let Ok(mut chart) =
@@ -113,18 +130,7 @@ pub fn plot(
                 else {
                     return String::new();
                 };
-                let _ = chart
-                    .configure_mesh()
-                    .x_desc(xlabel)
-                    .y_desc(ylabel)
-                    .y_label_formatter(&|v| format!("{v:.1e}"))
-                    .draw();
-                draw!(chart);
-                let _ = chart
-                    .configure_series_labels()
-                    .background_style(WHITE.mix(0.8))
-                    .border_style(BLACK)
-                    .draw();
+                finish!(chart, |v: &f64| format!("{v:.1e}"));
             }
             Scale::Lin => {
                 let pad = 0.05 * (y1 - y0);
@@ -132,18 +138,7 @@ pub fn plot(
                 else {
                     return String::new();
                 };
-                let _ = chart
-                    .configure_mesh()
-                    .x_desc(xlabel)
-                    .y_desc(ylabel)
-                    .y_label_formatter(&|v| format!("{v:.2e}"))
-                    .draw();
-                draw!(chart);
-                let _ = chart
-                    .configure_series_labels()
-                    .background_style(WHITE.mix(0.8))
-                    .border_style(BLACK)
-                    .draw();
+                finish!(chart, |v: &f64| format!("{v:.2e}"));
             }
         }
         let _ = root.present();

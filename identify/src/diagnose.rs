@@ -25,6 +25,7 @@ use crate::interpolate::TwinEvaluator;
 use crate::modal_update::{update_modes, Points, Prior};
 use crate::model::{ChannelModel, ModalModel, Mode, ModeNum};
 use crate::operating::{operating_spectra, OperatingSpectra};
+use crate::refit::second_derivative;
 use crate::simulate::{force_rows, Hold};
 use crate::timeseries::{ResponseKind, TimeSeries};
 use crate::twin::{now_unix, HistoryEntry, Sinusoid, Twin};
@@ -490,19 +491,6 @@ pub fn holdout_fit(twin: &Twin, splits: &[Split]) -> Result<f64> {
         return Err(Error::BadInput("no response column to compare with".into()));
     }
     Ok(fit_percent_real(&meas, &sim))
-}
-
-fn second_derivative(x: &[f64], dt: f64) -> Vec<f64> {
-    let n = x.len();
-    let mut a = vec![0.0; n];
-    for i in 1..n.saturating_sub(1) {
-        a[i] = (x[i + 1] - 2.0 * x[i] + x[i - 1]) / (dt * dt);
-    }
-    if n >= 3 {
-        a[0] = a[1];
-        a[n - 1] = a[n - 2];
-    }
-    a
 }
 
 /// Replaces the model of every pose by `f(model)`.

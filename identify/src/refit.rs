@@ -153,7 +153,8 @@ pub fn simulate_record(twin: &Twin, ts: &TimeSeries) -> Result<Vec<AxisTrace>> {
     Ok(res)
 }
 
-fn second_derivative(x: &[f64], dt: f64) -> Vec<f64> {
+/// Central second difference (acceleration from sampled displacement), ends copied.
+pub(crate) fn second_derivative(x: &[f64], dt: f64) -> Vec<f64> {
     let n = x.len();
     let mut a = vec![0.0; n];
     for i in 1..n.saturating_sub(1) {
