@@ -317,42 +317,84 @@ fn excited_modes(model: &ModalModel, pts: &[Points]) -> Vec<usize> {
     free
 }
 
-/// The paper's intermediate FRF and weight on the previous FRF's grid.
+/// The paper's intermediate FRF and weight: the previous FRF with the operating points
+/// inserted AT THEIR OWN FREQUENCIES (previous lines within half a previous line spacing
+/// of an inserted point are replaced; snapping to the previous grid would misplace points
+/// on lightly damped peaks). Channels the operating data lack take the previous model's
+/// value at an inserted frequency.
 pub fn intermediate_frf(
     previous: &Frf,
     model: &ModalModel,
     sp: &OperatingSpectra,
     lines: &[usize],
 ) -> (Frf, Vec<Vec<f64>>) {
-    let mut frf = previous.clone();
-    let n = frf.freqs_hz.len();
-    let mut inserted = vec![false; n];
-    for &l in lines {
-        let f = sp.freqs_hz[l];
-        let Some(i) = nearest(&frf.freqs_hz, f) else {
-            continue;
-        };
-        inserted[i] = true;
-        for c in &mut frf.channels {
-            if let Some((_, h)) = sp.h.iter().find(|(ch, _)| *ch == c.channel) {
-                c.h[i] = h[l];
-                if let Some(g) = &mut c.coherence {
-                    let o = sp
-                        .outputs
-                        .iter()
-                        .position(|a| *a == c.channel.output)
-                        .unwrap_or(0);
-                    g[i] = sp.coherence[o].1[l];
-                }
-            }
-        }
-    }
-    // uncertainty range: 3 half-power bandwidths of the nearest mode (≥ 3 lines)
-    let df = if n > 1 {
-        frf.freqs_hz[1] - frf.freqs_hz[0]
+    let pf = &previous.freqs_hz;
+    let prev_df = if pf.len() > 1 {
+        (pf[pf.len() - 1] - pf[0]) / (pf.len() - 1) as f64
     } else {
         1.0
     };
+    let mut ins: Vec<f64> = lines.iter().map(|&l| sp.freqs_hz[l]).collect();
+    ins.sort_by(f64::total_cmp);
+    // rows: (frequency, previous line, operating line)
+    let mut rows: Vec<(f64, Option<usize>, Option<usize>)> = Vec::new();
+    for (i, &f) in pf.iter().enumerate() {
+        let k = ins.partition_point(|&g| g < f);
+        let near = [k.saturating_sub(1), k.min(ins.len().saturating_sub(1))]
+            .iter()
+            .any(|&j| ins.get(j).is_some_and(|g| (g - f).abs() <= 0.5 * prev_df));
+        if !near {
+            rows.push((f, Some(i), None));
+        }
+    }
+    for &l in lines {
+        rows.push((sp.freqs_hz[l], None, Some(l)));
+    }
+    rows.sort_by(|a, b| a.0.total_cmp(&b.0));
+    rows.dedup_by(|a, b| a.0 == b.0);
+    let n = rows.len();
+    let inserted: Vec<bool> = rows.iter().map(|r| r.2.is_some()).collect();
+    let channels = previous
+        .channels
+        .iter()
+        .map(|c| {
+            let op = sp.h.iter().find(|(ch, _)| *ch == c.channel).map(|(_, h)| h);
+            let o = sp
+                .outputs
+                .iter()
+                .position(|a| *a == c.channel.output)
+                .unwrap_or(0);
+            let ci = model.channel_index(c.channel);
+            let h = rows
+                .iter()
+                .map(|&(f, pi, ol)| match (pi, ol, op) {
+                    (Some(i), _, _) => c.h[i],
+                    (None, Some(l), Some(h)) => h[l],
+                    _ => ci.map_or(Complex64::new(0.0, 0.0), |ci| model.eval_hz(ci, f)),
+                })
+                .collect();
+            let coherence = c.coherence.as_ref().map(|g| {
+                rows.iter()
+                    .map(|&(_, pi, ol)| match (pi, ol) {
+                        (Some(i), _) => g[i],
+                        (None, Some(l)) if op.is_some() => sp.coherence[o].1[l],
+                        _ => 1.0,
+                    })
+                    .collect()
+            });
+            crate::frf::FrfChannel {
+                channel: c.channel,
+                h,
+                coherence,
+            }
+        })
+        .collect();
+    let frf = Frf {
+        freqs_hz: rows.iter().map(|r| r.0).collect(),
+        channels,
+    };
+    // uncertainty range: 3 half-power bandwidths of the nearest mode (≥ 3 lines)
+    let df = prev_df;
     let range_at = |f: f64| -> f64 {
         let m = model
             .modes
@@ -401,17 +443,6 @@ pub fn intermediate_frf(
     }
     let weights = vec![w; frf.channels.len()];
     (frf, weights)
-}
-
-fn nearest(grid: &[f64], f: f64) -> Option<usize> {
-    if grid.is_empty() {
-        return None;
-    }
-    let i = grid.partition_point(|&g| g < f);
-    let cands = [i.saturating_sub(1), i.min(grid.len() - 1)];
-    cands
-        .into_iter()
-        .min_by(|&a, &b| (grid[a] - f).abs().total_cmp(&(grid[b] - f).abs()))
 }
 
 /// Lifetime refit of `twin` from operating records (forces, responses, axis positions).
