@@ -103,7 +103,8 @@ pub fn weights_for(frf: &Frf, opts: &FitOptions) -> Vec<Vec<f64>> {
 fn band_of(frf: &Frf, opts: &FitOptions) -> (f64, f64) {
     let lo = frf.freqs_hz.first().copied().unwrap_or(0.0);
     let hi = frf.freqs_hz.last().copied().unwrap_or(0.0);
-    opts.band_hz.map_or((lo, hi), |(a, b)| (a.max(lo), b.min(hi)))
+    opts.band_hz
+        .map_or((lo, hi), |(a, b)| (a.max(lo), b.min(hi)))
 }
 
 /// Per-channel fit of `model` against `frf` within `band`.
@@ -169,7 +170,11 @@ pub fn identify_campaign(
     let mut fits: Vec<PoseFit> = fits.into_iter().collect::<Result<_>>()?;
     let mut warnings: Vec<String> = fits
         .iter()
-        .flat_map(|f| f.warnings.iter().map(move |w| format!("pose {:?}: {w}", f.pose)))
+        .flat_map(|f| {
+            f.warnings
+                .iter()
+                .map(move |w| format!("pose {:?}: {w}", f.pose))
+        })
         .collect();
     if fits.len() > 1 {
         warnings.extend(track_modes(&mut fits, opts)?);

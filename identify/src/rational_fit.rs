@@ -136,9 +136,7 @@ pub fn weights(frf: &Frf, opts: &FitOptions) -> Vec<Vec<f64>> {
         Weighting::Custom(w) if w.len() == frf.channels.len() => Some(w.as_slice()),
         _ => None,
     };
-    let band = opts
-        .band_hz
-        .unwrap_or((f64::NEG_INFINITY, f64::INFINITY));
+    let band = opts.band_hz.unwrap_or((f64::NEG_INFINITY, f64::INFINITY));
     data::full_weights(frf, opts, custom, band)
 }
 
@@ -430,8 +428,7 @@ fn finish(prep: &Prepared, sol: &Solved) -> Result<ModalModel> {
     let model = prep.to_model(&sol.modes, &sol.coefs);
     if !model.is_valid() {
         return Err(Error::Numerical(
-            "the fitted model is not finite or not stable; narrow the band or fix the order"
-                .into(),
+            "the fitted model is not finite or not stable; narrow the band or fix the order".into(),
         ));
     }
     Ok(model)

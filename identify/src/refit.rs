@@ -243,7 +243,9 @@ fn chi(model: &ModalModel, pts: &[Points]) -> f64 {
     let mut s = 0.0;
     let mut n = 0usize;
     for p in pts {
-        let Some(ci) = model.channel_index(p.channel) else { continue };
+        let Some(ci) = model.channel_index(p.channel) else {
+            continue;
+        };
         for ((f, h), sg) in p.freqs_hz.iter().zip(&p.h).zip(&p.sigma) {
             s += ((model.eval_hz(ci, *f) - h) / sg).norm_sqr();
             n += 2;
@@ -262,7 +264,9 @@ fn excited_modes(model: &ModalModel, pts: &[Points]) -> Vec<usize> {
     for k in 0..model.modes.len() {
         let m = model.modes[k];
         let hit = pts.iter().any(|p| {
-            let Some(ci) = model.channel_index(p.channel) else { return false };
+            let Some(ci) = model.channel_index(p.channel) else {
+                return false;
+            };
             let n = model.channels[ci].num[k];
             p.freqs_hz.iter().any(|f| {
                 let s = Complex64::new(0.0, 2.0 * PI * f);
@@ -289,26 +293,38 @@ pub fn intermediate_frf(
     let mut inserted = vec![false; n];
     for &l in lines {
         let f = sp.freqs_hz[l];
-        let Some(i) = nearest(&frf.freqs_hz, f) else { continue };
+        let Some(i) = nearest(&frf.freqs_hz, f) else {
+            continue;
+        };
         inserted[i] = true;
         for c in &mut frf.channels {
             if let Some((_, h)) = sp.h.iter().find(|(ch, _)| *ch == c.channel) {
                 c.h[i] = h[l];
                 if let Some(g) = &mut c.coherence {
-                    let o = sp.outputs.iter().position(|a| *a == c.channel.output).unwrap_or(0);
+                    let o = sp
+                        .outputs
+                        .iter()
+                        .position(|a| *a == c.channel.output)
+                        .unwrap_or(0);
                     g[i] = sp.coherence[o].1[l];
                 }
             }
         }
     }
     // uncertainty range: 3 half-power bandwidths of the nearest mode (≥ 3 lines)
-    let df = if n > 1 { frf.freqs_hz[1] - frf.freqs_hz[0] } else { 1.0 };
+    let df = if n > 1 {
+        frf.freqs_hz[1] - frf.freqs_hz[0]
+    } else {
+        1.0
+    };
     let range_at = |f: f64| -> f64 {
         let m = model
             .modes
             .iter()
             .min_by(|a, b| (a.freq_hz() - f).abs().total_cmp(&(b.freq_hz() - f).abs()));
-        m.map_or(3.0 * df, |m| (3.0 * 2.0 * m.zeta * m.freq_hz()).max(3.0 * df))
+        m.map_or(3.0 * df, |m| {
+            (3.0 * 2.0 * m.zeta * m.freq_hz()).max(3.0 * df)
+        })
     };
     let ins: Vec<usize> = (0..n).filter(|&i| inserted[i]).collect();
     let mut w = vec![1.0; n];
@@ -329,7 +345,10 @@ pub fn intermediate_frf(
                 continue;
             }
         }
-        let d = d_below.into_iter().chain(d_above).fold(f64::INFINITY, f64::min);
+        let d = d_below
+            .into_iter()
+            .chain(d_above)
+            .fold(f64::INFINITY, f64::min);
         let r = range_at(f);
         if d < r {
             // raised-cosine fade from 0 at the inserted point to 1 at distance r
@@ -360,7 +379,11 @@ fn nearest(grid: &[f64], f: f64) -> Option<usize> {
 }
 
 /// Lifetime refit of `twin` from operating records (forces, responses, axis positions).
-pub fn refit(twin: &Twin, records: &[TimeSeries], opts: &RefitOptions) -> Result<(Twin, RefitReport)> {
+pub fn refit(
+    twin: &Twin,
+    records: &[TimeSeries],
+    opts: &RefitOptions,
+) -> Result<(Twin, RefitReport)> {
     let first = records
         .first()
         .ok_or_else(|| Error::BadInput("no operating data given".into()))?;

@@ -186,11 +186,9 @@ pub fn diagram(
     let mut blocks = Vec::with_capacity(frf.channels.len());
     for (ch, w) in frf.channels.iter().zip(weights) {
         let scale = {
-            let (num, den) = ch
-                .h
-                .iter()
-                .zip(w)
-                .fold((0.0, 0.0), |(a, b), (h, w)| (a + w * w * h.norm_sqr(), b + w * w));
+            let (num, den) = ch.h.iter().zip(w).fold((0.0, 0.0), |(a, b), (h, w)| {
+                (a + w * w * h.norm_sqr(), b + w * w)
+            });
             if den <= 0.0 || num <= 0.0 {
                 continue;
             }
@@ -427,6 +425,8 @@ mod tests {
         assert!((r[0].re + 3.0).abs() < 1e-12 && (r[1].re - 2.0).abs() < 1e-12);
         // z² + 1
         let r = poly_roots(&[0.0, 1.0, 0.0, 1.0]);
-        assert!(r.iter().all(|z| (z.norm() - 1.0).abs() < 1e-12 && z.re.abs() < 1e-12));
+        assert!(r
+            .iter()
+            .all(|z| (z.norm() - 1.0).abs() < 1e-12 && z.re.abs() < 1e-12));
     }
 }

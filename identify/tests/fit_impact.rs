@@ -58,7 +58,10 @@ fn impact_hammer_receptance_fit() {
     let keep: Vec<usize> = (0..freqs.len())
         .filter(|&k| freqs[k] >= 200.0 && freqs[k] <= 4500.0 && coh[k] > 0.95)
         .collect();
-    assert!(keep.len() > 4000, "coherence should be good in most of the band");
+    assert!(
+        keep.len() > 4000,
+        "coherence should be good in most of the band"
+    );
     let f: Vec<f64> = keep.iter().map(|&k| freqs[k]).collect();
     let h: Vec<Complex64> = keep
         .iter()

@@ -70,7 +70,11 @@ fn check(h_fit: Vec<Complex64>, min_fit: f64) -> identify::model::ModalModel {
     let res = fit_frf(&frf_of(h_fit), &opts()).unwrap();
     eprintln!("{}", res.report);
     assert!(res.automatic_order);
-    assert_eq!(res.model.modes.len(), 3, "automatic order must find 3 modes");
+    assert_eq!(
+        res.model.modes.len(),
+        3,
+        "automatic order must find 3 modes"
+    );
     assert!(res.model.is_valid());
     for (m, f) in res.model.modes.iter().zip(chain_freqs()) {
         // lightly damped: damped and undamped frequency agree to < 0.1 %
@@ -105,7 +109,10 @@ fn noisy(rel: f64, seed: u64, min_fit: f64) {
     let from_truth = refine_from(&exact, &frf_of(noisy), &w, &opts()).unwrap();
     let best = fit_vs(&from_truth, 0, &freqs, &truth);
     eprintln!("noise {rel}: raw data {raw:.3} %, ours {ours:.4} %, LM from the truth {best:.4} %");
-    assert!(ours > raw, "the model must be closer to the truth than the data");
+    assert!(
+        ours > raw,
+        "the model must be closer to the truth than the data"
+    );
     assert!(ours >= best - 0.01, "not at the optimum: {ours} vs {best}");
 }
 
@@ -125,13 +132,19 @@ fn paper_denominator_is_unstable_ours_is_not() {
     let a = [1.0, -5.704, 13.78, -18.06, 13.54, -5.504, 0.9485];
     let max = poly_roots(&a).iter().map(|z| z.norm()).fold(0.0, f64::max);
     eprintln!("paper eq. 4: largest |z| = {max:.5}");
-    assert!(max > 1.0, "the printed denominator should have a pole outside");
+    assert!(
+        max > 1.0,
+        "the printed denominator should have a pole outside"
+    );
 
     let h: Vec<Complex64> = grid().iter().map(|&f| chain_frf(f)).collect();
     let model = check(h, 99.95);
     let (_b, den) = model.discrete_tf(0, 0.01);
     assert_eq!(den.len(), 7);
-    let ours = poly_roots(&den).iter().map(|z| z.norm()).fold(0.0, f64::max);
+    let ours = poly_roots(&den)
+        .iter()
+        .map(|z| z.norm())
+        .fold(0.0, f64::max);
     eprintln!("ours: largest |z| = {ours:.6}");
     assert!(ours < 1.0);
 }

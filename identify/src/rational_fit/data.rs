@@ -86,7 +86,9 @@ impl Prepared {
         }
         let f_hi = frf.freqs_hz[*keep.last().unwrap_or(&0)];
         if f_hi <= 0.0 {
-            return Err(Error::BadInput("the band holds no positive frequency".into()));
+            return Err(Error::BadInput(
+                "the band holds no positive frequency".into(),
+            ));
         }
         let band = Frf {
             freqs_hz: keep.iter().map(|&k| frf.freqs_hz[k]).collect(),
@@ -116,11 +118,9 @@ impl Prepared {
         let mut h = Vec::new();
         let mut h_scale = Vec::new();
         for (c, wc) in band.channels.iter().zip(&w) {
-            let (num, den) = c
-                .h
-                .iter()
-                .zip(wc)
-                .fold((0.0, 0.0), |(a, b), (h, w)| (a + w * w * h.norm_sqr(), b + w * w));
+            let (num, den) = c.h.iter().zip(wc).fold((0.0, 0.0), |(a, b), (h, w)| {
+                (a + w * w * h.norm_sqr(), b + w * w)
+            });
             let sc = if den > 0.0 && num > 0.0 {
                 (num / den).sqrt()
             } else {
@@ -228,7 +228,10 @@ fn validate(frf: &Frf) -> Result<()> {
                 nf
             )));
         }
-        if let Some(k) = c.h.iter().position(|h| !h.re.is_finite() || !h.im.is_finite()) {
+        if let Some(k) =
+            c.h.iter()
+                .position(|h| !h.re.is_finite() || !h.im.is_finite())
+        {
             return Err(Error::BadInput(format!(
                 "channel {}: non-finite value at {} Hz; remove or repair that line",
                 c.channel, frf.freqs_hz[k]
