@@ -76,7 +76,8 @@ pub const DATA_TIME: i32 = 17;
 pub const DATA_FREQUENCY: i32 = 18;
 
 /// One axis description of records 8–11 (abscissa, ordinate, denominator, z axis).
-#[derive(Debug, Clone, PartialEq, Default)]
+/// The default is data type 0 (unknown), exponents 0, labels `NONE`.
+#[derive(Debug, Clone, PartialEq)]
 pub struct UffAxis {
     /// Specific data type: 0 unknown, 1 general, 8 displacement, 11 velocity,
     /// 12 acceleration, 13 excitation force, 17 time, 18 frequency, ... (see the `DATA_*`
@@ -92,6 +93,19 @@ pub struct UffAxis {
     pub label: String,
     /// Units label (at most 20 characters are written).
     pub units: String,
+}
+
+impl Default for UffAxis {
+    fn default() -> Self {
+        UffAxis {
+            data_type: DATA_UNKNOWN,
+            len_exp: 0,
+            force_exp: 0,
+            temp_exp: 0,
+            label: "NONE".into(),
+            units: "NONE".into(),
+        }
+    }
 }
 
 impl UffAxis {
