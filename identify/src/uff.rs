@@ -416,6 +416,7 @@ fn parse_axis(ctx: &Ctx, l: &[u8], line: usize, record: &str) -> Result<UffAxis>
 /// a `    -1` ... `    -1` block, or when a dataset 58 is malformed or truncated.
 pub fn parse_uff58(bytes: &[u8], source: &Path) -> Result<Vec<UffFunction>> {
     let ctx = Ctx { file: source };
+    let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes); // UTF-8 BOM
     let mut cur = Cursor {
         b: bytes,
         pos: 0,
@@ -755,7 +756,7 @@ fn parse_one58(
     };
     let values: Vec<f64> = if binary {
         let size = if double { 8 } else { 4 };
-        let nbytes = expected.checked_mul(size).unwrap_or(usize::MAX);
+        let nbytes = expected.saturating_mul(size);
         let start_line = cur.line;
         let Some(raw) = cur.take(nbytes) else {
             return Err(ctx.err(

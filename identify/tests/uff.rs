@@ -136,6 +136,7 @@ fn real_file_with_crlf_and_blank_lines_between_blocks() {
     let crlf = text
         .replace('\n', "\r\n")
         .replace("    -1\r\n    -1", "    -1\r\n\r\n    -1");
+    let crlf = format!("\u{feff}{crlf}"); // and a byte-order mark
     let a = parse_uff58(text.as_bytes(), Path::new("a.uff")).unwrap();
     let b = parse_uff58(crlf.as_bytes(), Path::new("b.uff")).unwrap();
     assert_eq!(a.len(), 3);
