@@ -757,3 +757,35 @@ proptest! {
         prop_assert_eq!(&back[0].data, &f.data);
     }
 }
+
+/// Header layout of pyuff's `data/Sample_UFF58_ascii.uff` (commercial software export):
+/// an entity name with a blank, a time response in real single precision (6E13.5).
+#[test]
+fn commercial_header_single_precision_time_response() {
+    let text = "    -1\n    58\nMic 01.0Scalar\nNONE\n18-Apr-16 13:49:58\nNONE\nNONE\n\
+        \x20   1         0    0         0 Mic 01             0   1 NONE               0   0\n\
+        \x20        2         8         1  0.00000E+00  1.52588E-05  0.00000E+00\n\
+        \x20       17    0    0    0 time                 s                   \n\
+        \x20       21    0    0    0 Pressure             Pa                  \n\
+        \x20        0    0    0    0 NONE                 NONE                \n\
+        \x20        0    0    0    0 NONE                 NONE                \n\
+        \x20-1.47553E-02 -1.72957E-02 -1.66101E-02 -1.61988E-02 -1.68925E-02 -1.53669E-02\n\
+        \x20-1.44522E-02  3.44719E-04\n    -1\n";
+    let f = parse_uff58(text.as_bytes(), Path::new("mic.uff")).unwrap();
+    assert_eq!(f.len(), 1);
+    let f = &f[0];
+    assert_eq!(f.func_type, 1);
+    assert_eq!(f.response_entity, "Mic 01");
+    assert_eq!((f.response_node, f.response_dir), (0, 1));
+    assert_eq!(f.reference_entity, "NONE");
+    assert_eq!(f.ord_data_type, 2);
+    assert!(!f.is_complex);
+    assert_eq!(f.abscissa_axis.label, "time");
+    assert_eq!(f.abscissa_axis.units, "s");
+    assert_eq!(f.ordinate_axis.units, "Pa");
+    assert_eq!(f.data.len(), 8);
+    assert_eq!(f.data[7], Complex64::new(3.44719e-4, 0.0));
+    assert!((f.abscissa[7] - 7.0 * 1.52588e-5).abs() < 1e-18);
+    // and it is not an FRF
+    assert!(frf_from_uff(std::slice::from_ref(f), &UffSelect::default()).is_err());
+}
