@@ -6,6 +6,7 @@
 //! | step (paper section) | module |
 //! |---|---|
 //! | reading data (SPEC 2, 3) | [`read`], [`timeseries`] |
+//! | FRF exchange with modal software: universal file dataset 58/58b | [`uff`] |
 //! | FRF estimation, H1/H2/Hv, impact processing (2.1) | [`spectra`] |
 //! | model order from a stabilization diagram (2.2) | [`stabilization`] |
 //! | rational fit: Sanathanan–Koerner / vector fitting + refinement (2.2) | [`rational_fit`] |
@@ -52,5 +53,6 @@ pub mod spectra;
 pub mod stabilization;
 pub mod timeseries;
 pub mod twin;
+pub mod uff;
 
 pub use error::{Error, Result};
