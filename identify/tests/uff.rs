@@ -15,23 +15,8 @@ use num_complex::Complex64;
 use proptest::prelude::*;
 use std::path::{Path, PathBuf};
 
-/// The shared data directory: `../../shared` from the crate (final layout), else
-/// `$MTWIN_SHARED`, else `/work/shared`.
-fn shared(rel: &str) -> PathBuf {
-    let mut cands = vec![PathBuf::from(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../shared"
-    ))];
-    if let Ok(p) = std::env::var("MTWIN_SHARED") {
-        cands.push(PathBuf::from(p));
-    }
-    cands.push(PathBuf::from("/work/shared"));
-    cands
-        .into_iter()
-        .map(|c| c.join(rel))
-        .find(|p| p.exists())
-        .unwrap_or_else(|| panic!("shared data file {rel} not found"))
-}
+mod shared_data;
+use shared_data::shared;
 
 fn data(rel: &str) -> PathBuf {
     PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data")).join(rel)

@@ -7,20 +7,13 @@ use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 use std::path::PathBuf;
 
-/// The shared data folder: the final layout first, then `MTWIN_SHARED`, then /work/shared.
+/// The shared data folder.
 pub fn data_dir() -> PathBuf {
-    let first = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data"));
-    if first.is_dir() {
-        return first;
-    }
-    if let Ok(p) = std::env::var("MTWIN_SHARED") {
-        let p = PathBuf::from(p).join("data");
-        if p.is_dir() {
-            return p;
-        }
-    }
-    PathBuf::from("/work/shared/data")
+    shared_data::data_dir()
 }
+
+#[path = "../shared_data/mod.rs"]
+mod shared_data;
 
 /// Adds complex Gaussian noise of relative RMS `rel` (per line, relative to |h|).
 pub fn add_noise(h: &[Complex64], rel: f64, seed: u64) -> Vec<Complex64> {

@@ -173,19 +173,10 @@ pub fn pulses(n: usize, dt: f64, times_s: &[f64], amps: &[f64], width_s: f64) ->
     f
 }
 
-/// The shared data directory (see read tests).
+/// The shared data directory.
 pub fn shared(rel: &str) -> PathBuf {
-    let mut cands = vec![PathBuf::from(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../shared"
-    ))];
-    if let Ok(p) = std::env::var("MTWIN_SHARED") {
-        cands.push(PathBuf::from(p));
-    }
-    cands.push(PathBuf::from("/work/shared"));
-    cands
-        .into_iter()
-        .map(|c| c.join(rel))
-        .find(|p| p.exists())
-        .unwrap_or_else(|| panic!("shared data file {rel} not found"))
+    shared_data::shared(rel)
 }
+
+#[path = "../shared_data/mod.rs"]
+mod shared_data;
