@@ -99,11 +99,6 @@ struct PoseFit {
     diagram: StabilizationDiagram,
 }
 
-/// Weights the fit uses for `frf` (coherence-based by default), per channel per line.
-pub fn weights_for(frf: &Frf, opts: &FitOptions) -> Vec<Vec<f64>> {
-    crate::rational_fit::weights(frf, opts)
-}
-
 fn band_of(frf: &Frf, opts: &FitOptions) -> (f64, f64) {
     let lo = frf.freqs_hz.first().copied().unwrap_or(0.0);
     let hi = frf.freqs_hz.last().copied().unwrap_or(0.0);
@@ -335,7 +330,7 @@ fn track_modes(fits: &mut [PoseFit], opts: &CampaignOptions) -> Result<Vec<Strin
         if let Some(s) = fits[i].sigma {
             start.shift_poles(-s);
         }
-        let w = weights_for(&fits[i].frf, &opts.fit);
+        let w = crate::rational_fit::weights(&fits[i].frf, &opts.fit);
         let mut refined = refine_from(&start, &fits[i].frf, &w, &opts.fit)?;
         let band = band_of(&fits[i].frf, &opts.fit);
         let own = {

@@ -22,7 +22,7 @@ use crate::error::{Error, Result};
 use crate::extended::simulate_extended;
 use crate::frf::fit_percent_real;
 use crate::interpolate::TwinEvaluator;
-use crate::modal_update::{update_modes, Points, Prior};
+use crate::modal_update::{chi, chi_local, update_modes, Points, Prior};
 use crate::model::{ChannelModel, ModalModel, Mode, ModeNum};
 use crate::operating::{operating_spectra, OperatingSpectra};
 use crate::refit::second_derivative;
@@ -394,67 +394,6 @@ pub fn points(ev: &Evidence, band: (f64, f64), min_coh: f64) -> Vec<Points> {
         })
         .filter(|p| !p.h.is_empty())
         .collect()
-}
-
-/// RMS misfit in standard errors; channels the model lacks count as model = 0.
-pub fn chi(model: &ModalModel, pts: &[Points], delay_s: f64) -> f64 {
-    let mut s = 0.0;
-    let mut n = 0usize;
-    for p in pts {
-        let ci = model.channel_index(p.channel);
-        for ((f, h), sg) in p.freqs_hz.iter().zip(&p.h).zip(&p.sigma) {
-            let m = ci.map_or(Complex64::new(0.0, 0.0), |ci| {
-                model.eval_hz(ci, *f) * Complex64::from_polar(1.0, -2.0 * PI * f * delay_s)
-            });
-            s += ((m - h) / sg).norm_sqr();
-            n += 2;
-        }
-    }
-    if n == 0 {
-        0.0
-    } else {
-        (s / n as f64).sqrt()
-    }
-}
-
-/// Largest local RMS misfit in standard errors: over every window of ±2.5 % around a
-/// point (at least 5 points), per channel. A missing or shifted resonance is local; the
-/// global RMS of [`chi`] dilutes it over the whole band.
-pub fn chi_local(model: &ModalModel, pts: &[Points], delay_s: f64) -> f64 {
-    let mut worst: f64 = 0.0;
-    for p in pts {
-        let ci = model.channel_index(p.channel);
-        let r2: Vec<f64> = p
-            .freqs_hz
-            .iter()
-            .zip(&p.h)
-            .zip(&p.sigma)
-            .map(|((f, h), sg)| {
-                let m = ci.map_or(Complex64::new(0.0, 0.0), |ci| {
-                    model.eval_hz(ci, *f) * Complex64::from_polar(1.0, -2.0 * PI * f * delay_s)
-                });
-                ((m - h) / sg).norm_sqr() / 2.0
-            })
-            .collect();
-        let f = &p.freqs_hz;
-        let (mut lo, mut hi) = (0usize, 0usize);
-        let mut acc = 0.0;
-        for i in 0..f.len() {
-            while hi < f.len() && f[hi] <= f[i] * 1.025 {
-                acc += r2[hi];
-                hi += 1;
-            }
-            while f[lo] < f[i] * 0.975 {
-                acc -= r2[lo];
-                lo += 1;
-            }
-            let n = hi - lo;
-            if n >= 5 {
-                worst = worst.max((acc.max(0.0) / n as f64).sqrt());
-            }
-        }
-    }
-    worst
 }
 
 fn band_of(twin: &Twin) -> (f64, f64) {

@@ -27,6 +27,64 @@ pub struct Points {
     pub sigma: Vec<f64>,
 }
 
+/// Squared misfits `|F(f) e^{−iωτ} − H| ² / σ²` of every point, per channel (the model's
+/// response delayed by `delay_s`; channels the model lacks count as model = 0).
+fn normalized_residuals(model: &ModalModel, pts: &[Points], delay_s: f64) -> Vec<Vec<f64>> {
+    pts.iter()
+        .map(|p| {
+            let ci = model.channel_index(p.channel);
+            p.freqs_hz
+                .iter()
+                .zip(&p.h)
+                .zip(&p.sigma)
+                .map(|((f, h), sg)| {
+                    let m = ci.map_or(Complex64::new(0.0, 0.0), |ci| {
+                        model.eval_hz(ci, *f) * Complex64::from_polar(1.0, -2.0 * PI * f * delay_s)
+                    });
+                    ((m - h) / sg).norm_sqr()
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// RMS misfit in standard errors per real component (1 = within noise).
+pub fn chi(model: &ModalModel, pts: &[Points], delay_s: f64) -> f64 {
+    let r2 = normalized_residuals(model, pts, delay_s);
+    let n: usize = r2.iter().map(Vec::len).sum();
+    if n == 0 {
+        return 0.0;
+    }
+    (r2.iter().flatten().sum::<f64>() / (2 * n) as f64).sqrt()
+}
+
+/// Largest local RMS misfit in standard errors: over every window of ±2.5 % around a
+/// point (at least 5 points), per channel. A missing or shifted resonance is local; the
+/// global RMS of [`chi`] dilutes it over the whole band.
+pub fn chi_local(model: &ModalModel, pts: &[Points], delay_s: f64) -> f64 {
+    let mut worst: f64 = 0.0;
+    for (p, r2) in pts.iter().zip(normalized_residuals(model, pts, delay_s)) {
+        let f = &p.freqs_hz;
+        let (mut lo, mut hi) = (0usize, 0usize);
+        let mut acc = 0.0;
+        for i in 0..f.len() {
+            while hi < f.len() && f[hi] <= f[i] * 1.025 {
+                acc += r2[hi] / 2.0;
+                hi += 1;
+            }
+            while f[lo] < f[i] * 0.975 {
+                acc -= r2[lo] / 2.0;
+                lo += 1;
+            }
+            let n = hi - lo;
+            if n >= 5 {
+                worst = worst.max((acc.max(0.0) / n as f64).sqrt());
+            }
+        }
+    }
+    worst
+}
+
 /// Prior widths (one standard deviation) of the free parameters.
 #[derive(Debug, Clone, Copy)]
 pub struct Prior {

@@ -26,7 +26,7 @@ use crate::campaign::channel_fits;
 use crate::error::{Error, Result};
 use crate::frf::{fit_percent_real, Frf};
 use crate::interpolate::{simulate_twin, TwinEvaluator};
-use crate::modal_update::{apply_change, update_modes, Points, Prior};
+use crate::modal_update::{apply_change, chi, update_modes, Points, Prior};
 use crate::model::ModalModel;
 use crate::operating::{operating_spectra, OperatingSpectra};
 use crate::rational_fit::{refine_from, FitOptions};
@@ -264,25 +264,6 @@ fn operating_points(sp: &OperatingSpectra, lines: &[usize], model: &ModalModel) 
     pts
 }
 
-fn chi(model: &ModalModel, pts: &[Points]) -> f64 {
-    let mut s = 0.0;
-    let mut n = 0usize;
-    for p in pts {
-        let Some(ci) = model.channel_index(p.channel) else {
-            continue;
-        };
-        for ((f, h), sg) in p.freqs_hz.iter().zip(&p.h).zip(&p.sigma) {
-            s += ((model.eval_hz(ci, *f) - h) / sg).norm_sqr();
-            n += 2;
-        }
-    }
-    if n == 0 {
-        0.0
-    } else {
-        (s / n as f64).sqrt()
-    }
-}
-
 /// Modes the operating data can tell about: the mode dominates (≥ 30 % of |H|) at some
 /// selected line AND selected lines lie on both sides of its peak within a few half-power
 /// bandwidths (or shifted by up to 15 %), so its frequency and damping are resolved.
@@ -468,7 +449,7 @@ pub fn refit(
     let sp = operating_spectra(records, nfft)?;
     let lines = selected_lines(&sp, opts);
     let pts = operating_points(&sp, &lines, &old);
-    let drift_chi = chi(&old, &pts);
+    let drift_chi = chi(&old, &pts, 0.0);
     let drift_fit = time_fit(twin, records)?;
     let drifted = drift_fit < 100.0 - opts.drift_threshold_pct || drift_chi > opts.drift_chi;
     let mut report = RefitReport {
