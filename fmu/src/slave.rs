@@ -269,11 +269,12 @@ impl Slave {
 
     /// `fmi2GetReal`.
     pub fn get_real(&mut self, vrs: &[u32], out: &mut [f64]) -> Result<(), String> {
-        let y = self.outputs();
+        // outputs only when asked for (inputs are read back as set)
+        let mut y: Option<[f64; 3]> = None;
         for (vr, o) in vrs.iter().zip(out.iter_mut()) {
             let var = self.var(*vr)?;
             *o = match var {
-                Var::Disp(a) => y[a.index()],
+                Var::Disp(a) => y.get_or_insert_with(|| self.outputs())[a.index()],
                 other => self.inputs[Self::slot(other).unwrap_or(0)],
             };
         }
