@@ -114,6 +114,9 @@ fn bench(c: &mut Criterion) {
                 .collect::<Vec<_>>(),
             fits.join(", ")
         );
+        if std::env::var_os("MTWIN_BENCH_REPORT").is_some() {
+            println!("{}", r.report);
+        }
     }
     let mut g = c.benchmark_group("identify_2ch_2000_lines_8_modes");
     g.sample_size(10);

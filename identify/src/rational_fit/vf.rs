@@ -42,6 +42,7 @@ fn basis_row(s: Complex64, poles: &[Complex64], out: &mut Vec<Complex64>) {
 /// Im > 0 or per real pole). Stops early when the poles settle. Returns the number of
 /// iterations done.
 pub(crate) fn relocate(p: &Prepared, poles: &mut Vec<Complex64>, iters: usize) -> usize {
+    let mut jumps = 0;
     for it in 0..iters {
         let Some(new) = step(p, poles) else {
             return it;
@@ -49,6 +50,13 @@ pub(crate) fn relocate(p: &Prepared, poles: &mut Vec<Complex64>, iters: usize) -
         let change = pole_change(poles, &new);
         *poles = new;
         if change < 1e-7 {
+            return it + 1;
+        }
+        // A pole the data do not support keeps jumping (often between a pair and two
+        // real poles); more iterations only shuffle it. Stop after three such jumps in
+        // a row once the first iterations are done.
+        jumps = if change > 0.5 { jumps + 1 } else { 0 };
+        if it >= 4 && jumps >= 3 {
             return it + 1;
         }
     }
