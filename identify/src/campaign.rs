@@ -122,6 +122,22 @@ pub fn channel_fits(model: &ModalModel, frf: &Frf, band: (f64, f64)) -> Vec<Chan
         .collect()
 }
 
+/// A measured FRF matrix at one pose: the input of [`identify_frfs`].
+#[derive(Debug, Clone)]
+pub struct MeasuredFrf {
+    /// Axis position \[m\].
+    pub pose: [f64; 3],
+    /// Receptance FRFs (m/N), with coherence when known.
+    pub frf: Frf,
+    /// Decay rate \[1/s\] of an exponential window applied to the records, when one
+    /// was (its added damping is removed from the fitted poles).
+    pub exp_window_sigma: Option<f64>,
+    /// Where the FRF came from (file names).
+    pub sources: Vec<String>,
+    /// Warnings from its estimation.
+    pub warnings: Vec<String>,
+}
+
 /// Identifies a twin from a measurement campaign (one or many poses).
 ///
 /// `progress(done, total)` is called as poses finish (from worker threads).
@@ -134,40 +150,99 @@ pub fn identify_campaign(
         return Err(Error::BadInput("no data files given".into()));
     }
     let groups = group_by_pose(records, opts.pose_tol_m);
-    let total = groups.len();
-    let done = std::sync::atomic::AtomicUsize::new(0);
-    let fits: Vec<Result<PoseFit>> = groups
+    let measured: Vec<MeasuredFrf> = groups
         .par_iter()
         .map(|g| {
             let recs: Vec<TimeSeries> = g.records.iter().map(|&i| records[i].clone()).collect();
             let est = estimate_frf(&recs, &opts.frf)?;
-            let res = fit_frf(&est.frf, &opts.fit).map_err(|e| match e {
-                Error::Numerical(m) => Error::Numerical(format!("pose {:?}: {m}", g.pose)),
+            Ok(MeasuredFrf {
+                pose: g.pose,
+                frf: est.frf,
+                exp_window_sigma: est.exp_window_sigma,
+                sources: recs.iter().map(|r| r.source.clone()).collect(),
+                warnings: est.warnings,
+            })
+        })
+        .collect::<Result<_>>()?;
+    let mut res = identify_frfs(measured, opts, progress)?;
+    if let Some(h) = res.twin.history.last_mut() {
+        h.summary = format!(
+            "a-priori twin from {} records at {} poses",
+            records.len(),
+            res.twin.poses.len()
+        );
+    }
+    Ok(res)
+}
+
+/// Identifies a twin from FRFs already measured (e.g. read from UFF dataset 58 or an FRF
+/// CSV): one fit per pose (in parallel), modes tracked across poses, leave-one-pose-out
+/// accuracy of the interpolation. Entries at the same pose (within
+/// [`CampaignOptions::pose_tol_m`]) are not merged: give each pose once.
+pub fn identify_frfs(
+    measured: Vec<MeasuredFrf>,
+    opts: &CampaignOptions,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<CampaignResult> {
+    if measured.is_empty() {
+        return Err(Error::BadInput("no FRFs given".into()));
+    }
+    for (i, a) in measured.iter().enumerate() {
+        for b in &measured[i + 1..] {
+            let d = (0..3)
+                .map(|k| (a.pose[k] - b.pose[k]).powi(2))
+                .sum::<f64>()
+                .sqrt();
+            if d <= opts.pose_tol_m {
+                return Err(Error::BadInput(format!(
+                    "{} and {} are both at pose {:?}: give each pose once (merge the \
+                     channels into one file) or set distinct poses",
+                    a.sources.join("+"),
+                    b.sources.join("+"),
+                    a.pose
+                )));
+            }
+        }
+    }
+    let total = measured.len();
+    let n_sources: usize = measured.iter().map(|m| m.sources.len()).sum();
+    let all_sources: Vec<String> = measured.iter().flat_map(|m| m.sources.clone()).collect();
+    let done = std::sync::atomic::AtomicUsize::new(0);
+    let fits: Vec<Result<PoseFit>> = measured
+        .into_par_iter()
+        .map(|m| {
+            let res = fit_frf(&m.frf, &opts.fit).map_err(|e| match e {
+                Error::Numerical(msg) => Error::Numerical(format!("pose {:?}: {msg}", m.pose)),
                 other => other,
             })?;
             let mut model = res.model;
-            if let Some(s) = est.exp_window_sigma {
+            if let Some(s) = m.exp_window_sigma {
                 model.shift_poles(s);
             }
             let n = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
             progress(n, total);
             Ok(PoseFit {
-                pose: g.pose,
+                pose: m.pose,
                 order: OrderInfo {
                     modes: model.modes.len(),
                     automatic: res.automatic_order,
                     stable_freqs_hz: res.diagram.stable_freqs_hz(),
                 },
-                frf: est.frf,
+                frf: m.frf,
                 model,
-                sigma: est.exp_window_sigma,
-                sources: recs.iter().map(|r| r.source.clone()).collect(),
-                warnings: est.warnings,
+                sigma: m.exp_window_sigma,
+                sources: m.sources,
+                warnings: m.warnings,
                 diagram: res.diagram,
             })
         })
         .collect();
     let mut fits: Vec<PoseFit> = fits.into_iter().collect::<Result<_>>()?;
+    fits.sort_by(|a, b| {
+        (a.pose[2], a.pose[1], a.pose[0])
+            .partial_cmp(&(b.pose[2], b.pose[1], b.pose[0]))
+            .unwrap_or(std::cmp::Ordering::Equal)
+    });
     let mut warnings: Vec<String> = fits
         .iter()
         .flat_map(|f| {
@@ -205,10 +280,9 @@ pub fn identify_campaign(
     twin.history.push(HistoryEntry {
         unix_time: now_unix(),
         kind: "identify".into(),
-        files: records.iter().map(|r| r.source.clone()).collect(),
+        files: all_sources,
         summary: format!(
-            "a-priori twin from {} records at {} poses",
-            records.len(),
+            "a-priori twin from {n_sources} measured FRF file(s) at {} poses",
             twin.poses.len()
         ),
         figures: Default::default(),

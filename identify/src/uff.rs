@@ -1404,7 +1404,7 @@ pub fn frf_from_uff(funcs: &[UffFunction], sel: &UffSelect) -> Result<Frf> {
         if let Some((_, g, _, _)) = chans.iter().find(|(cc, ..)| *cc == c) {
             return Err(Error::BadInput(format!(
                 "{} and {} both give channel {c}; select one response and one reference \
-                 node (UffSelect)",
+                 node",
                 g.describe(),
                 f.describe()
             )));

@@ -133,6 +133,12 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
             pose_tol: 1e-3,
             report: Some(dir.join("identify.html")),
             name: "demo machine".into(),
+            frf_in: super::frf_io::FrfInputArgs {
+                pose: None,
+                uff_ref: None,
+                uff_resp: None,
+                uff_ordinate: None,
+            },
         },
         &quiet(),
     )

@@ -16,9 +16,13 @@ pub struct Args {
     /// Pose X,Y,Z in metres.
     #[arg(long, value_parser = parse_pose, allow_hyphen_values = true)]
     pub at: [f64; 3],
-    /// Output FRF CSV (receptance, m/N).
+    /// Output FRF (receptance, m/N): FRF CSV, or Universal File Format dataset 58 when
+    /// the name ends in `.uff` or `.unv`.
     #[arg(long)]
     pub out: PathBuf,
+    /// With a `.uff`/`.unv` output: write binary dataset 58b instead of ASCII 58.
+    #[arg(long)]
+    pub uff_binary: bool,
     /// Lowest frequency \[Hz\] (default: the twin's fitted band).
     #[arg(long)]
     pub fmin: Option<f64>,
@@ -108,9 +112,9 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
     }
     let model = ev.model_at(a.at).clone();
     let frf: Frf = model.frf(&freqs);
-    identify::read::write_frf_csv(&a.out, &frf)?;
+    let format = super::frf_io::write_frf(&a.out, &frf, a.uff_binary)?;
     out.say(format!(
-        "FRF of {} channels at {:?} ({} lines {:.1}-{:.1} Hz, {}) -> {}",
+        "FRF of {} channels at {:?} ({} lines {:.1}-{:.1} Hz, {}) -> {} ({format})",
         frf.channels.len(),
         a.at,
         freqs.len(),

@@ -12,9 +12,13 @@ pub struct Args {
     /// direction are averaged.
     #[arg(required = true)]
     pub files: Vec<PathBuf>,
-    /// Output FRF CSV (SPEC section 3), receptance in m/N with coherence.
+    /// Output FRF, receptance in m/N with coherence: FRF CSV (SPEC section 3), or
+    /// Universal File Format dataset 58 when the name ends in `.uff` or `.unv`.
     #[arg(long)]
     pub out: PathBuf,
+    /// With a `.uff`/`.unv` output: write binary dataset 58b instead of ASCII 58.
+    #[arg(long)]
+    pub uff_binary: bool,
     /// Estimator: h1 (noise on the response), h2 (noise on the force), hv (both).
     #[arg(long, default_value = "h1", value_parser = ["h1", "h2", "hv"])]
     pub estimator: String,
@@ -54,7 +58,7 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
     for w in &est.warnings {
         out.say(format!("warning: {w}"));
     }
-    identify::read::write_frf_csv(&a.out, &est.frf)?;
+    let format = super::frf_io::write_frf(&a.out, &est.frf, a.uff_binary)?;
     let mut chans = Vec::new();
     for c in &est.frf.channels {
         let mean_coh = c
@@ -72,7 +76,7 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
         chans.push(serde_json::json!({"channel": c.channel.name(), "mean_coherence": mean_coh}));
     }
     out.say(format!(
-        "{} ({}, Δf = {:.3} Hz, {} hits used, {} dropped) -> {}",
+        "{} ({}, Δf = {:.3} Hz, {} hits used, {} dropped) -> {} ({format})",
         est.method,
         a.estimator.to_uppercase(),
         est.df_hz,

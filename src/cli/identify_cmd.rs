@@ -1,15 +1,18 @@
 //! `mtwin identify`.
 
+use super::frf_io::{read_measured, split_inputs, FrfInputArgs};
 use super::{check_output_not_input, frf::frf_options, read_series, BadInput, Output};
 use anyhow::{Context, Result};
-use identify::campaign::{identify_campaign, CampaignOptions};
+use identify::campaign::{identify_campaign, identify_frfs, CampaignOptions};
 use identify::rational_fit::FitOptions;
 use std::path::PathBuf;
 
 /// Arguments of `mtwin identify`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Time-series CSV files of the campaign (grouped by pose and excitation axis).
+    /// Time-series CSV files of the campaign (grouped by pose and excitation axis), or
+    /// measured FRFs instead: Universal File Format dataset 58/58b (`.uff`, `.unv`) or
+    /// FRF CSV files (SPEC section 3), one pose per file.
     #[arg(required = true)]
     pub files: Vec<PathBuf>,
     /// Output twin file (JSON).
@@ -41,6 +44,9 @@ pub struct Args {
     /// Name of the machine, written into the twin.
     #[arg(long, default_value = "machine")]
     pub name: String,
+    /// Measured FRF inputs.
+    #[command(flatten)]
+    pub frf_in: FrfInputArgs,
 }
 
 /// Runs `mtwin identify`.
@@ -50,7 +56,12 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
         return Err(BadInput("--order must be at least 1 (number of modes)".into()).into());
     }
     let t0 = std::time::Instant::now();
-    let series = read_series(&a.files, out)?;
+    let (series_files, frf_files) = split_inputs(&a.files)?;
+    let series = read_series(&series_files, out)?;
+    let measured = frf_files
+        .iter()
+        .map(|f| read_measured(f, &a.frf_in))
+        .collect::<Result<Vec<_>>>()?;
     let t_read = t0.elapsed();
     let band = match (a.fmin, a.fmax) {
         (None, None) => None,
@@ -82,7 +93,12 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
             b.set_position(done as u64);
         }
     };
-    let mut res = identify_campaign(&series, &opts, &progress).context("identification")?;
+    let mut res = if measured.is_empty() {
+        identify_campaign(&series, &opts, &progress)
+    } else {
+        identify_frfs(measured, &opts, &progress)
+    }
+    .context("identification")?;
     if let Some(b) = bar {
         b.finish_and_clear();
     }
@@ -93,8 +109,13 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
     }
     let twin = &res.twin;
     out.say(format!(
-        "{} records, {} poses, channels {} (read {:.2} s, total {:.2} s)",
-        series.len(),
+        "{} {}, {} poses, channels {} (read {:.2} s, total {:.2} s)",
+        a.files.len(),
+        if frf_files.is_empty() {
+            "records"
+        } else {
+            "measured FRF files"
+        },
         twin.poses.len(),
         twin.channels
             .iter()

@@ -5,6 +5,7 @@ mod diagnose;
 mod eval;
 mod export;
 mod frf;
+mod frf_io;
 mod identify_cmd;
 pub mod identify_report;
 mod lobes;
@@ -41,11 +42,14 @@ pub enum Cmd {
     Demo(demo::Args),
     /// FRF estimate (H1 by default) and coherence from force/response time series.
     ///
-    /// Example: mtwin frf impact_x.csv impact_y.csv --out frf.csv
+    /// Example: mtwin frf impact_x.csv impact_y.csv --out frf.csv   (or --out frf.uff for
+    /// Universal File Format dataset 58)
     Frf(frf::Args),
     /// The a-priori twin from a measurement campaign (one or more poses).
     ///
     /// Example: mtwin identify campaign/*.csv --out twin.json
+    ///
+    /// From measured FRFs: mtwin identify meas.uff --uff-ref 1 --pose 0.2,0.1,0 --out twin.json
     Identify(identify_cmd::Args),
     /// The twin's FRF at any pose (interpolated between measured poses).
     ///
