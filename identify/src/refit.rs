@@ -10,14 +10,19 @@
 //!    W(ω) is 1 at inserted points and far from them, 0 between inserted points, faded in
 //!    over an uncertainty range around them and near 0 Hz; the rational fit is refined
 //!    from the previous model.
-//! 3. **mtwin's update** ([`RefitMethod::Modal`], the default): no stepped FRF. The modes
-//!    whose response dominates some well-excited line are freed, all others held; the
-//!    free modes' frequency, damping and residues are fitted directly to the operating
-//!    cross-spectral FRF points, each weighted by its standard error from coherence, with
-//!    a weak prior towards the previous model ([`crate::modal_update`]).
-//! 4. **Position update**: the parameter change found at the operating pose is spread to
-//!    every measured pose with weight `exp(-(d/L)²)` (d = distance to the operating pose,
-//!    L settable; default half the workspace diagonal).
+//! 3. **mtwin's update** ([`RefitMethod::Modal`], the default): no stepped FRF. Only
+//!    modes whose response dominates some well-excited line are candidates; they are
+//!    freed one at a time (forward selection: the candidate that lowers the misfit most,
+//!    kept while it lowers it by ≥ 1 %), all others held; the free modes' frequency,
+//!    damping and residues are fitted directly to the operating cross-spectral FRF
+//!    points, each weighted by its standard error from coherence, with a weak prior
+//!    towards the previous model ([`crate::modal_update`]). The standard errors scale
+//!    with |H| from the neighbourhood, then (a second, reweighted pass) from the updated
+//!    model — never from the line's own noisy value, which would bias peaks low.
+//! 4. **Position update**: the parameter change found at the operating pose applies in
+//!    full to the measured poses of the grid cell around it (so the twin there carries
+//!    the whole change) and to every other measured pose with weight `exp(-(d/L)²)`
+//!    (d = distance from that cell, L settable; default half the workspace diagonal).
 //! 5. **History**: an entry with the data files, the figures and the complete previous
 //!    pose models is appended; nothing is ever removed.
 
@@ -67,7 +72,10 @@ pub struct RefitOptions {
     pub min_coherence: f64,
     /// Welch segment length (default: ~0.25 Hz... chosen from the record: 1 s or shorter).
     pub nfft: Option<usize>,
-    /// Length L \[m\] of the position spread; `None` = half the workspace diagonal;
+    /// Length L \[m\] of the position spread: the change applies in full to the measured
+    /// poses of the grid cell around the operating pose and with weight exp(−(d/L)²) to
+    /// the others, d = distance from that cell; `None` = half the workspace diagonal; 0 = the
+    /// nearest pose only;
     /// infinity = the same change everywhere.
     pub spread_length_m: Option<f64>,
     /// Rational-fit options (the paper's method).
@@ -190,7 +198,7 @@ pub fn time_fit(twin: &Twin, records: &[TimeSeries]) -> Result<f64> {
 /// Welch segment length: lines no wider than an eighth of the narrowest half-power bandwidth of
 /// the twin's modes below 0.4 fs (so peaks are resolved), but at least 4 segments in the
 /// record (7 averages with 50 % overlap).
-fn default_nfft(ts: &TimeSeries, model: &ModalModel) -> usize {
+pub fn default_nfft(ts: &TimeSeries, model: &ModalModel) -> usize {
     let n = ts.len();
     let fs = ts.fs();
     let df = model
@@ -239,7 +247,15 @@ fn selected_lines(sp: &OperatingSpectra, opts: &RefitOptions) -> Vec<usize> {
     sel
 }
 
-fn operating_points(sp: &OperatingSpectra, lines: &[usize], model: &ModalModel) -> Vec<Points> {
+/// FRF points at `lines` with their standard errors. The error scales with `|H|` taken
+/// from `mag_model` when given (an iteratively reweighted pass with the updated model),
+/// else from the measured neighbourhood.
+fn operating_points(
+    sp: &OperatingSpectra,
+    lines: &[usize],
+    model: &ModalModel,
+    mag_model: Option<&ModalModel>,
+) -> Vec<Points> {
     let mut pts = Vec::new();
     for (ch, h) in &sp.h {
         if model.channel_index(*ch).is_none() {
@@ -252,16 +268,103 @@ fn operating_points(sp: &OperatingSpectra, lines: &[usize], model: &ModalModel) 
             h: Vec::new(),
             sigma: Vec::new(),
         };
+        // The standard error from the line's neighbourhood (median over ±3 lines of the
+        // coherence and of |H|), not from the line itself: a weight that depends on the
+        // line's own noise favours lines whose noise happens to lower |H| and biases
+        // every peak low (damping high).
+        let n = h.len();
+        let g_all = &sp.coherence[o].1;
+        let med = |v: &mut Vec<f64>| {
+            v.sort_by(f64::total_cmp);
+            v[v.len() / 2]
+        };
         for &l in lines {
-            let g = sp.coherence[o].1[l];
+            let (a, b) = (l.saturating_sub(3), (l + 4).min(n));
+            let g = med(&mut g_all[a..b].to_vec());
+            let mag = match mag_model.and_then(|m| m.channel_index(*ch).map(|ci| (m, ci))) {
+                Some((m, ci)) => m.eval_hz(ci, sp.freqs_hz[l]).norm(),
+                None => med(&mut h[a..b].iter().map(|v| v.norm()).collect()),
+            };
             let rel = OperatingSpectra::rel_error(g, sp.n_avg).max(2e-3);
             p.freqs_hz.push(sp.freqs_hz[l]);
             p.h.push(h[l]);
-            p.sigma.push(rel * h[l].norm().max(1e-300));
+            p.sigma.push(rel * mag.max(1e-300));
         }
         pts.push(p);
     }
     pts
+}
+
+/// Per axis, the measured coordinates just below and above `pose` (the grid cell the
+/// interpolation uses there; the nearest coordinate when outside).
+fn enclosing_cell(twin: &Twin, pose: [f64; 3]) -> [(f64, f64); 3] {
+    [0, 1, 2].map(|a| {
+        let c: Vec<f64> = twin.poses.iter().map(|p| p.pose[a]).collect();
+        let below = c
+            .iter()
+            .copied()
+            .filter(|v| *v <= pose[a] + 1e-12)
+            .fold(f64::NEG_INFINITY, f64::max);
+        let above = c
+            .iter()
+            .copied()
+            .filter(|v| *v >= pose[a] - 1e-12)
+            .fold(f64::INFINITY, f64::min);
+        let lo = if below.is_finite() { below } else { above };
+        let hi = if above.is_finite() { above } else { below };
+        (lo, hi)
+    })
+}
+
+/// A freed mode must lower the RMS misfit by this fraction to stay free.
+const MIN_MISFIT_GAIN: f64 = 0.01;
+
+/// Forward selection of the modes to update: free the candidate whose update lowers the
+/// misfit most, keep it when the gain is at least [`MIN_MISFIT_GAIN`], repeat. Wear
+/// usually changes one or two modes; freeing every excited mode lets the unchanged ones
+/// absorb estimation noise and leakage, which costs accuracy against the truth.
+fn parsimonious_update(
+    old: &ModalModel,
+    candidates: &[usize],
+    pts: &[Points],
+) -> Result<(crate::modal_update::UpdateResult, Vec<usize>)> {
+    let chi0 = chi(old, pts, 0.0);
+    let mut best = crate::modal_update::UpdateResult {
+        model: old.clone(),
+        chi_before: chi0,
+        chi_after: chi0,
+        iterations: 0,
+    };
+    let mut free: Vec<usize> = Vec::new();
+    loop {
+        let mut round: Option<(usize, crate::modal_update::UpdateResult)> = None;
+        for &k in candidates.iter().filter(|k| !free.contains(k)) {
+            let mut f = free.clone();
+            f.push(k);
+            f.sort_unstable();
+            let r = update_modes(old, &f, pts, Prior::default(), 60)?;
+            if round
+                .as_ref()
+                .is_none_or(|(_, b)| r.chi_after < b.chi_after)
+            {
+                round = Some((k, r));
+            }
+        }
+        let Some((k, r)) = round else { break };
+        if std::env::var_os("MTWIN_DEBUG_REFIT").is_some() {
+            eprintln!(
+                "refit selection: free {free:?} + {k}: chi {:.4} -> {:.4}",
+                best.chi_after, r.chi_after
+            );
+        }
+        if r.chi_after > best.chi_after * (1.0 - MIN_MISFIT_GAIN) {
+            break;
+        }
+        free.push(k);
+        best = r;
+    }
+    best.chi_before = chi0;
+    Ok((best, free))
 }
 
 /// Modes the operating data can tell about: the mode dominates (≥ 30 % of |H|) at some
@@ -448,7 +551,7 @@ pub fn refit(
     let nfft = opts.nfft.unwrap_or_else(|| default_nfft(first, &old));
     let sp = operating_spectra(records, nfft)?;
     let lines = selected_lines(&sp, opts);
-    let pts = operating_points(&sp, &lines, &old);
+    let pts = operating_points(&sp, &lines, &old, None);
     let drift_chi = chi(&old, &pts, 0.0);
     let drift_fit = time_fit(twin, records)?;
     let drifted = drift_fit < 100.0 - opts.drift_threshold_pct || drift_chi > opts.drift_chi;
@@ -482,10 +585,13 @@ pub fn refit(
     let (new, new_frf) = match opts.method {
         RefitMethod::Modal => {
             let lines_c = coherent_lines(&sp, opts);
-            let pts = operating_points(&sp, &lines_c, &old);
+            let pts = operating_points(&sp, &lines_c, &old, None);
             report.lines_hz = lines_c.iter().map(|&l| sp.freqs_hz[l]).collect();
-            let free = excited_modes(&old, &pts);
-            let res = update_modes(&old, &free, &pts, Prior::default(), 60)?;
+            let candidates = excited_modes(&old, &pts);
+            let (first, free) = parsimonious_update(&old, &candidates, &pts)?;
+            // reweighted pass: standard errors from the updated model's |H|
+            let pts2 = operating_points(&sp, &lines_c, &old, Some(&first.model));
+            let res = update_modes(&old, &free, &pts2, Prior::default(), 60)?;
             let prev = &twin.poses[near].frf;
             let (frf, _) = intermediate_frf(prev, &old, &sp, &lines);
             (res.model, frf)
@@ -504,13 +610,24 @@ pub fn refit(
             (m, frf)
         }
     };
-    // spread to the measured poses
+    // spread to the measured poses: in full over the poses of the grid cell around the
+    // operating pose (so the twin at the operating pose carries the whole change), then
+    // with weight exp(-(d/L)^2), d = distance from that cell
     let mut out = twin.clone();
     let (lo, hi) = ev.bounds();
     let diag = (0..3).map(|a| (hi[a] - lo[a]).powi(2)).sum::<f64>().sqrt();
     let l = opts.spread_length_m.unwrap_or(0.5 * diag);
+    let cell = enclosing_cell(twin, pose);
     for (i, p) in out.poses.iter_mut().enumerate() {
-        let d = d2(&p.pose).sqrt();
+        let d = (0..3)
+            .map(|a| {
+                (cell[a].0 - p.pose[a])
+                    .max(p.pose[a] - cell[a].1)
+                    .max(0.0)
+                    .powi(2)
+            })
+            .sum::<f64>()
+            .sqrt();
         let w = if l.is_infinite() || diag == 0.0 {
             1.0
         } else if l <= 0.0 {

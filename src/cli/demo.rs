@@ -222,6 +222,7 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
             psd_threshold: None,
             min_coherence: 0.8,
             spread_length: None,
+            report: Some(dir.join("refit.html")),
         },
         &quiet(),
     )
@@ -341,6 +342,7 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
     }
     let _ = writeln!(html, "</table><h2>Files</h2><ul>\
         <li><a href=\"identify.html\">identify.html</a> — FRFs, coherence, stabilization diagram, modes across the workspace</li>\
+        <li><a href=\"refit.html\">refit.html</a> — drift check, operating FRF vs the twin before and after, responses, history</li>\
         <li><a href=\"diagnosis/report.html\">diagnosis/report.html</a> and <code>diagnosis/diagnosis.json</code></li>\
         <li><code>twin.json</code>, <code>twin_refit.json</code> (with history), <code>twin.fmu</code>, <code>twin_refit.fmu</code></li>\
         <li><code>data/</code> — every generated CSV: rerun any step by hand, e.g. <code>mtwin identify data/campaign/*.csv --fmin 30 --fmax 2500 --out t.json</code></li>\

@@ -10,6 +10,7 @@ mod identify_cmd;
 pub mod identify_report;
 mod lobes;
 mod refit;
+mod refit_report;
 mod simulate;
 
 use anyhow::Result;
@@ -61,7 +62,7 @@ pub enum Cmd {
     Simulate(simulate::Args),
     /// Lifetime update from operating data; keeps the whole history in the twin file.
     ///
-    /// Example: mtwin refit --twin twin.json cut1.csv --out twin2.json --fmu twin2.fmu
+    /// Example: mtwin refit --twin twin.json cut1.csv --out twin2.json --fmu twin2.fmu --report refit.html
     Refit(refit::Args),
     /// What the twin gets wrong on measured data, the named cause, the extended model and
     /// the measured gain on held-out data.

@@ -40,6 +40,10 @@ pub struct Args {
     /// default half the workspace diagonal; `inf` = everywhere alike.
     #[arg(long)]
     pub spread_length: Option<f64>,
+    /// Also write an HTML report (drift check, operating FRF vs the twin before and
+    /// after, responses, modes changed, history) here.
+    #[arg(long)]
+    pub report: Option<PathBuf>,
 }
 
 /// Runs `mtwin refit`.
@@ -47,7 +51,7 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
     let mut inputs = a.files.clone();
     inputs.push(a.twin.clone());
     check_output_not_input(&a.out, &inputs)?;
-    if let Some(f) = &a.fmu {
+    for f in a.fmu.iter().chain(&a.report) {
         check_output_not_input(f, &inputs)?;
     }
     let twin = Twin::load(&a.twin)?;
@@ -95,6 +99,11 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
     if let Some(f) = &a.fmu {
         super::export::export(&new, f)?;
         out.say(format!("updated FMU -> {}", f.display()));
+    }
+    if let Some(r) = &a.report {
+        let html = super::refit_report::refit_report(&twin, &new, &rep, &series);
+        identify::atomic::write_atomic(r, html.as_bytes())?;
+        out.say(format!("report -> {}", r.display()));
     }
     out.say(format!(
         "twin ({} history entries) -> {}",

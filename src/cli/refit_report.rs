@@ -1,0 +1,380 @@
+//! The HTML report of `mtwin refit`: the drift check, the operating FRF points against
+//! the twin before and after, the measured vs simulated response before and after, the
+//! modes that changed, how the change spread over the poses, and the whole history with
+//! the mode frequencies over the machine's life.
+
+use crate::report::{esc, page, plot, Scale, Series};
+use identify::interpolate::TwinEvaluator;
+use identify::model::ModalModel;
+use identify::operating::operating_spectra;
+use identify::refit::{default_nfft, simulate_record, RefitReport};
+use identify::timeseries::TimeSeries;
+use identify::twin::Twin;
+use std::f64::consts::PI;
+use std::fmt::Write as _;
+
+/// Longest time window shown in the response plots \[samples\].
+const MAX_SAMPLES_SHOWN: usize = 2000;
+
+/// Builds the report page.
+pub fn refit_report(old: &Twin, new: &Twin, rep: &RefitReport, series: &[TimeSeries]) -> String {
+    let mut b = String::new();
+    let _ = writeln!(
+        b,
+        "<p>Refit of <code>{}</code> from {} operating record(s) at pose ({:.3}, {:.3}, {:.3}) m \
+         with the <b>{:?}</b> method.</p>",
+        esc(&new.name),
+        series.len(),
+        rep.pose[0],
+        rep.pose[1],
+        rep.pose[2],
+        rep.method
+    );
+    let _ = writeln!(
+        b,
+        "<h2>Drift check</h2><table><tr><th>simulated response fit before</th>\
+         <th>operating FRF misfit</th><th>decision</th><th>fit after</th><th>lines used</th></tr>\
+         <tr><td>{:.2} %</td><td>{:.1} σ</td><td class=\"{}\">{}</td><td>{}</td><td>{}</td></tr></table>",
+        rep.drift_fit_pct,
+        rep.drift_chi,
+        if rep.updated { "bad" } else { "ok" },
+        if rep.updated {
+            "drift: twin updated"
+        } else {
+            "within tolerance: no change"
+        },
+        if rep.updated {
+            format!("{:.2} %", rep.fit_after_pct)
+        } else {
+            "—".into()
+        },
+        rep.lines_hz.len()
+    );
+    if !rep.modes.is_empty() {
+        let _ = writeln!(
+            b,
+            "<h2>Modes updated</h2><table><tr><th>mode</th><th>f before [Hz]</th>\
+             <th>f after [Hz]</th><th>change</th><th>ζ before</th><th>ζ after</th></tr>"
+        );
+        for m in &rep.modes {
+            let _ = writeln!(
+                b,
+                "<tr><td>{}</td><td>{:.2}</td><td>{:.2}</td><td>{:+.2} %</td><td>{:.2} %</td>\
+                 <td>{:.2} %</td></tr>",
+                m.mode,
+                m.freq_before_hz,
+                m.freq_after_hz,
+                100.0 * (m.freq_after_hz / m.freq_before_hz - 1.0),
+                100.0 * m.zeta_before,
+                100.0 * m.zeta_after
+            );
+        }
+        let _ = writeln!(b, "</table>");
+    }
+    frf_section(&mut b, old, new, rep, series);
+    response_section(&mut b, old, new, series);
+    if !rep.pose_weights.is_empty() {
+        let _ = writeln!(
+            b,
+            "<h2>Spread over the poses</h2><p>Share of the measured change applied at each \
+             measured pose (1 = in full).</p><table><tr><th>pose [m]</th><th>weight</th></tr>"
+        );
+        for (p, w) in &rep.pose_weights {
+            let _ = writeln!(
+                b,
+                "<tr><td>({:.3}, {:.3}, {:.3})</td><td>{w:.3}</td></tr>",
+                p[0], p[1], p[2]
+            );
+        }
+        let _ = writeln!(b, "</table>");
+    }
+    history_section(&mut b, new, rep.pose);
+    page("mtwin refit", &b)
+}
+
+fn model_at(twin: &Twin, pose: [f64; 3]) -> Option<ModalModel> {
+    let mut ev = TwinEvaluator::new(twin).ok()?;
+    Some(ev.model_at(pose).clone())
+}
+
+/// Operating H1 at the lines used vs the twin's FRF before and after.
+fn frf_section(b: &mut String, old: &Twin, new: &Twin, rep: &RefitReport, series: &[TimeSeries]) {
+    let (Some(m_old), Some(m_new)) = (model_at(old, rep.pose), model_at(new, rep.pose)) else {
+        return;
+    };
+    let Some(first) = series.first() else { return };
+    let Ok(sp) = operating_spectra(series, default_nfft(first, &m_old)) else {
+        return;
+    };
+    let hi = m_old
+        .modes
+        .iter()
+        .map(|m| m.freq_hz())
+        .fold(0.0, f64::max)
+        .max(rep.lines_hz.iter().copied().fold(0.0, f64::max))
+        * 1.3;
+    let hi = hi.min(*sp.freqs_hz.last().unwrap_or(&hi));
+    let n = 800;
+    let f: Vec<f64> = (1..=n).map(|i| hi * i as f64 / n as f64).collect();
+    let _ = writeln!(
+        b,
+        "<h2>Operating FRF vs the twin</h2><p>Receptance at the operating pose: the \
+         operating H1 (cross-spectra of the milling forces and the response, phase kept) at \
+         the lines the refit used, the twin before and after.</p>"
+    );
+    for (ch, h) in &sp.h {
+        let (Some(ci_old), Some(ci_new)) = (m_old.channel_index(*ch), m_new.channel_index(*ch))
+        else {
+            continue;
+        };
+        let idx: Vec<usize> = rep
+            .lines_hz
+            .iter()
+            .filter_map(|lf| {
+                sp.freqs_hz
+                    .iter()
+                    .position(|x| (x - lf).abs() <= 1e-6 * lf.abs().max(1.0))
+            })
+            .collect();
+        let fx: Vec<f64> = idx.iter().map(|&k| sp.freqs_hz[k]).collect();
+        let mag_pts: Vec<f64> = idx.iter().map(|&k| h[k].norm()).collect();
+        let ph_pts: Vec<f64> = idx.iter().map(|&k| h[k].arg() * 180.0 / PI).collect();
+        let before: Vec<_> = f.iter().map(|&x| m_old.eval_hz(ci_old, x)).collect();
+        let after: Vec<_> = f.iter().map(|&x| m_new.eval_hz(ci_new, x)).collect();
+        let mag = |v: &[num_complex::Complex64]| v.iter().map(|c| c.norm()).collect::<Vec<_>>();
+        let ph = |v: &[num_complex::Complex64]| {
+            v.iter().map(|c| c.arg() * 180.0 / PI).collect::<Vec<_>>()
+        };
+        let (mb, ma, pb, pa) = (mag(&before), mag(&after), ph(&before), ph(&after));
+        let name = ch.name();
+        b.push_str(&plot(
+            &format!("{name}: |H| [m/N]"),
+            "frequency [Hz]",
+            "|H| [m/N]",
+            &[
+                Series {
+                    label: "twin before",
+                    x: &f,
+                    y: &mb,
+                    color: 2,
+                    points: false,
+                },
+                Series {
+                    label: "twin after",
+                    x: &f,
+                    y: &ma,
+                    color: 1,
+                    points: false,
+                },
+                Series {
+                    label: "operating H1 (lines used)",
+                    x: &fx,
+                    y: &mag_pts,
+                    color: 0,
+                    points: true,
+                },
+            ],
+            Scale::Log,
+        ));
+        b.push_str(&plot(
+            &format!("{name}: phase [deg]"),
+            "frequency [Hz]",
+            "phase [deg]",
+            &[
+                Series {
+                    label: "twin before",
+                    x: &f,
+                    y: &pb,
+                    color: 2,
+                    points: false,
+                },
+                Series {
+                    label: "twin after",
+                    x: &f,
+                    y: &pa,
+                    color: 1,
+                    points: false,
+                },
+                Series {
+                    label: "operating H1 (lines used)",
+                    x: &fx,
+                    y: &ph_pts,
+                    color: 0,
+                    points: true,
+                },
+            ],
+            Scale::Lin,
+        ));
+    }
+}
+
+/// Measured vs simulated response (first record), before and after.
+fn response_section(b: &mut String, old: &Twin, new: &Twin, series: &[TimeSeries]) {
+    let Some(ts) = series.first() else { return };
+    let (Ok(before), Ok(after)) = (simulate_record(old, ts), simulate_record(new, ts)) else {
+        return;
+    };
+    let _ = writeln!(
+        b,
+        "<h2>Measured vs simulated response</h2><p>{}: the twin driven by the measured \
+         forces and axis positions (first {} samples shown).</p>",
+        esc(&ts.source),
+        ts.len().min(MAX_SAMPLES_SHOWN)
+    );
+    for ((axis, meas, sb), (_, _, sa)) in before.iter().zip(&after) {
+        let n = meas.len().min(MAX_SAMPLES_SHOWN);
+        let t: Vec<f64> = (0..n).map(|i| i as f64 * ts.dt).collect();
+        let eb: Vec<f64> = (0..n).map(|i| meas[i] - sb[i]).collect();
+        let ea: Vec<f64> = (0..n).map(|i| meas[i] - sa[i]).collect();
+        b.push_str(&plot(
+            &format!("response {axis}: measured and twin after the refit"),
+            "time [s]",
+            "response",
+            &[
+                Series {
+                    label: "measured",
+                    x: &t,
+                    y: &meas[..n],
+                    color: 0,
+                    points: false,
+                },
+                Series {
+                    label: "twin after",
+                    x: &t,
+                    y: &sa[..n],
+                    color: 1,
+                    points: false,
+                },
+            ],
+            Scale::Lin,
+        ));
+        b.push_str(&plot(
+            &format!("response {axis}: residual (measured − twin)"),
+            "time [s]",
+            "residual",
+            &[
+                Series {
+                    label: "before",
+                    x: &t,
+                    y: &eb,
+                    color: 2,
+                    points: false,
+                },
+                Series {
+                    label: "after",
+                    x: &t,
+                    y: &ea,
+                    color: 1,
+                    points: false,
+                },
+            ],
+            Scale::Lin,
+        ));
+    }
+}
+
+/// `YYYY-MM-DD HH:MM` (UTC) of a Unix time.
+fn utc(t: u64) -> String {
+    // civil-from-days (H. Hinnant)
+    let days = (t / 86_400) as i64;
+    let sod = t % 86_400;
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = doy - (153 * mp + 2) / 5 + 1;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 };
+    let y = yoe + era * 400 + i64::from(m <= 2);
+    format!(
+        "{y:04}-{m:02}-{d:02} {:02}:{:02}",
+        sod / 3600,
+        (sod % 3600) / 60
+    )
+}
+
+/// The history table and the mode frequencies at `pose` over the twin's life.
+fn history_section(b: &mut String, twin: &Twin, pose: [f64; 3]) {
+    let _ = writeln!(
+        b,
+        "<h2>History</h2><p>Every change the twin went through; each entry keeps the pose \
+         models as they were before it, so no earlier model is lost.</p><table><tr><th>#</th>\
+         <th>time (UTC)</th><th>kind</th><th>files</th><th>what changed</th></tr>"
+    );
+    for (i, h) in twin.history.iter().enumerate() {
+        let _ = writeln!(
+            b,
+            "<tr><td>{i}</td><td>{}</td><td>{}</td><td style=\"text-align:left\">{}</td>\
+             <td style=\"text-align:left\">{}</td></tr>",
+            utc(h.unix_time),
+            esc(&h.kind),
+            esc(&h.files.join(", ")),
+            esc(&h.summary)
+        );
+    }
+    let _ = writeln!(b, "</table>");
+    // the model at `pose` after each entry: entry k+1's previous_poses is the state after
+    // entry k; the current twin is the state after the last entry
+    let mut states: Vec<ModalModel> = Vec::new();
+    for h in twin.history.iter().skip(1) {
+        if h.previous_poses.is_empty() {
+            continue;
+        }
+        let mut t = twin.clone();
+        t.poses = h.previous_poses.clone();
+        if let Some(m) = model_at(&t, pose) {
+            states.push(m);
+        }
+    }
+    if let Some(m) = model_at(twin, pose) {
+        states.push(m);
+    }
+    if states.len() < 2 {
+        return;
+    }
+    let n_modes = states.iter().map(|m| m.modes.len()).min().unwrap_or(0);
+    let x: Vec<f64> = (0..states.len()).map(|i| i as f64).collect();
+    let ys: Vec<Vec<f64>> = (0..n_modes)
+        .map(|k| {
+            states
+                .iter()
+                .map(|m| 100.0 * (m.modes[k].freq_hz() / states[0].modes[k].freq_hz() - 1.0))
+                .collect()
+        })
+        .collect();
+    let labels: Vec<String> = (0..n_modes)
+        .map(|k| format!("mode {k} ({:.0} Hz)", states[0].modes[k].freq_hz()))
+        .collect();
+    let series: Vec<Series> = ys
+        .iter()
+        .zip(&labels)
+        .enumerate()
+        .map(|(k, (y, l))| Series {
+            label: l,
+            x: &x,
+            y,
+            color: k,
+            points: false,
+        })
+        .collect();
+    b.push_str(&plot(
+        "natural frequencies at the operating pose over the twin's life",
+        "state (0 = identified, then after each refit)",
+        "change from the identified twin [%]",
+        &series,
+        Scale::Lin,
+    ));
+}
+
+#[cfg(test)]
+mod tests {
+    use super::utc;
+
+    #[test]
+    fn utc_formats_known_dates() {
+        assert_eq!(utc(0), "1970-01-01 00:00");
+        assert_eq!(utc(951_782_400), "2000-02-29 00:00");
+        assert_eq!(utc(1_795_392_000 + 3_660), "2026-11-23 01:01");
+    }
+}
