@@ -88,3 +88,35 @@ fn refit_writes_twin_history_fmu_and_report() {
         assert!(html.contains(needle), "report lacks {needle}");
     }
 }
+
+/// An installed binary alone (as `cargo install --path .` leaves it) exports a working
+/// FMU: the slave library is embedded.
+#[test]
+fn a_lone_copy_of_the_binary_exports_with_the_embedded_slave() {
+    let d = tmp();
+    let exe = d.path().join("mtwin");
+    std::fs::copy(env!("CARGO_BIN_EXE_mtwin"), &exe).unwrap();
+    let twin = ModalMachine::default_machine().exact_twin([2, 1, 1], &[Axis::X]);
+    let tp = d.path().join("t.json");
+    twin.save(&tp).unwrap();
+    let fmu = d.path().join("t.fmu");
+    let o = std::process::Command::new(&exe)
+        .args(["export", "--twin", s(&tp), "--out", s(&fmu), "--json"])
+        .env_remove("MTWIN_FMU_LIB")
+        .current_dir(d.path())
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["slave_library"], "embedded", "{v}");
+    // the zip holds an ELF shared object under binaries/linux64
+    let mut z = zip::ZipArchive::new(std::fs::File::open(&fmu).unwrap()).unwrap();
+    let mut so = Vec::new();
+    std::io::Read::read_to_end(
+        &mut z.by_name("binaries/linux64/mtwin_tcp.so").unwrap(),
+        &mut so,
+    )
+    .unwrap();
+    assert!(so.starts_with(b"\x7fELF"), "not an ELF shared object");
+    assert!(so.windows(20).any(|w| w == b"fmi2GetTypesPlatform"));
+}

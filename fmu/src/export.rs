@@ -3,8 +3,9 @@
 //! The slave library is this crate's `cdylib` (`libmtwin_fmu.so`), found in this order:
 //! the `MTWIN_FMU_LIB` environment variable; next to the running executable (and its
 //! `deps/`), which is where `cargo build`/`cargo run` put it for the `mtwin` binary; the
-//! workspace `target/{release,debug}` folders. Install with `scripts/install.sh` to put
-//! both side by side.
+//! workspace `target/{release,debug}` folders. The `mtwin` binary embeds the library
+//! (its build script builds it; see [`export_fmu_with`]), so an installed binary
+//! (`cargo install --path .`) needs nothing next to it.
 
 use crate::slave::{variables, Var};
 use identify::twin::Twin;
@@ -118,10 +119,27 @@ pub fn find_library() -> Result<PathBuf, identify::Error> {
     )))
 }
 
-/// Writes the FMU of `twin` to `out` (atomically).
+/// Writes the FMU of `twin` to `out` (atomically), with the slave library found by
+/// [`find_library`].
 pub fn export_fmu(twin: &Twin, out: &Path) -> Result<(), identify::Error> {
-    let lib = find_library()?;
-    let so = std::fs::read(&lib).map_err(|e| identify::Error::io(&lib, e))?;
+    export_fmu_with(twin, out, None)
+}
+
+/// Writes the FMU of `twin` to `out` (atomically). The slave library is `MTWIN_FMU_LIB`
+/// when set, else `embedded` (the bytes of `libmtwin_fmu.so` built into the caller) when
+/// given, else the one [`find_library`] finds.
+pub fn export_fmu_with(
+    twin: &Twin,
+    out: &Path,
+    embedded: Option<&[u8]>,
+) -> Result<(), identify::Error> {
+    let so: std::borrow::Cow<[u8]> = match embedded {
+        Some(b) if std::env::var_os("MTWIN_FMU_LIB").is_none() => std::borrow::Cow::Borrowed(b),
+        _ => {
+            let lib = find_library()?;
+            std::borrow::Cow::Owned(std::fs::read(&lib).map_err(|e| identify::Error::io(&lib, e))?)
+        }
+    };
     let xml = model_description(twin)
         .to_xml()
         .map_err(|e| bad(format!("modelDescription.xml: {e}")))?;

@@ -16,10 +16,28 @@ pub struct Args {
     pub out: PathBuf,
 }
 
+/// The FMU slave library built into this binary (see build.rs), if it was.
+#[cfg(mtwin_embedded_fmu)]
+pub const EMBEDDED_SLAVE: Option<&[u8]> =
+    Some(include_bytes!(concat!(env!("OUT_DIR"), "/libmtwin_fmu.so")));
+/// The FMU slave library built into this binary (see build.rs), if it was.
+#[cfg(not(mtwin_embedded_fmu))]
+pub const EMBEDDED_SLAVE: Option<&[u8]> = None;
+
 /// Writes the FMU of `twin` to `out`.
 pub fn export(twin: &Twin, out: &Path) -> Result<()> {
-    mtwin_fmu::export::export_fmu(twin, out)?;
+    mtwin_fmu::export::export_fmu_with(twin, out, EMBEDDED_SLAVE)?;
     Ok(())
+}
+
+/// Where the slave library of an export comes from: `embedded` or its path.
+pub fn slave_source() -> String {
+    if EMBEDDED_SLAVE.is_some() && std::env::var_os("MTWIN_FMU_LIB").is_none() {
+        return "embedded".into();
+    }
+    mtwin_fmu::export::find_library()
+        .map(|p| p.display().to_string())
+        .unwrap_or_else(|e| e.to_string())
 }
 
 /// Runs `mtwin export`.
@@ -27,11 +45,12 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
     super::check_output_not_input(&a.out, std::slice::from_ref(&a.twin))?;
     let twin = Twin::load(&a.twin)?;
     export(&twin, &a.out)?;
+    let slave = slave_source();
     out.say(format!(
-        "FMU (FMI 2.0 co-simulation, GUID {}) -> {}",
+        "FMU (FMI 2.0 co-simulation, GUID {}, slave library {slave}) -> {}",
         twin.guid(),
         a.out.display()
     ));
-    out.json(&serde_json::json!({"out": a.out, "guid": twin.guid()}));
+    out.json(&serde_json::json!({"out": a.out, "guid": twin.guid(), "slave_library": slave}));
     Ok(())
 }
