@@ -76,7 +76,8 @@ impl SectionStep {
             [e * f1 * a[1][0], e * (f0 + f1 * (a[1][1] - mu))],
         ];
         // Γ = ∫₀ʰ e^{Aσ} dσ B and M1 = ∫₀ʰ e^{Aσ} (h-σ)/h dσ B, B = [0, 1]ᵀ.
-        let (gamma, m1) = if w * h < 0.5 {
+        // series where the closed forms cancel (M1 loses ~(ωh)⁻² ulps), closed forms above
+        let (gamma, m1) = if w * h < 0.05 {
             // Power series: Γ = Σ A^k h^{k+1}/(k+1)! B, M1 = Σ A^k h^{k+1}/(k+2)! B.
             let mut ak: M2 = [[1.0, 0.0], [0.0, 1.0]];
             let mut g = [0.0; 2];
@@ -85,10 +86,17 @@ impl SectionStep {
             let mut fact1 = 1.0; // (k+1)!
             for k in 0..30 {
                 let fact2 = fact1 * (k as f64 + 2.0);
-                g[0] += ak[0][1] * hk / fact1;
-                g[1] += ak[1][1] * hk / fact1;
+                let dg = [ak[0][1] * hk / fact1, ak[1][1] * hk / fact1];
+                g[0] += dg[0];
+                g[1] += dg[1];
                 m[0] += ak[0][1] * hk / fact2;
                 m[1] += ak[1][1] * hk / fact2;
+                // the terms shrink like (ωh)^k / k!: stop once they no longer change g
+                // (M1's terms are smaller still)
+                if k >= 2 && dg[0].abs() <= 1e-17 * g[0].abs() && dg[1].abs() <= 1e-17 * g[1].abs()
+                {
+                    break;
+                }
                 ak = mat_mul(&a, &ak);
                 hk *= h;
                 fact1 = fact2;
