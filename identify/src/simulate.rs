@@ -62,8 +62,9 @@ impl SectionStep {
         let disc = mu * mu - w * w;
         let (f0, f1) = if disc < 0.0 {
             let q = (-disc).sqrt();
-            let s = if q * h < 1e-8 { h } else { (q * h).sin() / q };
-            ((q * h).cos(), s)
+            let (sn, cs) = (q * h).sin_cos();
+            let s = if q * h < 1e-8 { h } else { sn / q };
+            (cs, s)
         } else {
             let q = disc.sqrt();
             let s = if q * h < 1e-8 { h } else { (q * h).sinh() / q };
