@@ -818,7 +818,14 @@ fn summary_for(cause: Cause, d: &Map<String, Value>, before: f64, after: f64) ->
         ),
         Cause::Disturbance => format!(
             "Vibration at {} Hz comes from outside the cut (not caused by the measured force). {gain}",
-            d.get("freq_hz").map_or("?".into(), |v| v.to_string())
+            d.get("freq_hz")
+                .and_then(Value::as_array)
+                .map_or("?".into(), |v| v
+                    .iter()
+                    .filter_map(Value::as_f64)
+                    .map(|f| format!("{f:.1}"))
+                    .collect::<Vec<_>>()
+                    .join(", "))
         ),
         Cause::Unexplained => format!(
             "The twin misses the data between {} Hz and none of the known causes explains it; re-measure there. Held-out fit {before:.1} %.",

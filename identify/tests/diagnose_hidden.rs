@@ -83,3 +83,110 @@ fn hidden_effects_are_found_with_their_numbers() {
         assert!(d.fit_after_pct > d.fit_before_pct);
     }
 }
+
+/// Responses delayed by `k` samples (the first `k` samples repeat the first value).
+fn delayed(mut ts: TimeSeries, k: usize) -> TimeSeries {
+    for r in ts.response.iter_mut().flatten() {
+        let first = r[0];
+        let n = r.len();
+        r.rotate_right(k);
+        r[..k.min(n)].iter_mut().for_each(|v| *v = first);
+    }
+    ts
+}
+
+/// A sinusoid of `rel` × the response RMS at `f_hz` added to the response along `axis`
+/// (vibration from outside the measured force path).
+fn disturbed(mut ts: TimeSeries, axis: Axis, f_hz: f64, rel: f64) -> TimeSeries {
+    let dt = ts.dt;
+    if let Some(r) = ts.response[axis.index()].as_mut() {
+        let rms = (r.iter().map(|v| v * v).sum::<f64>() / r.len() as f64).sqrt();
+        for (i, v) in r.iter_mut().enumerate() {
+            *v += rel * rms * (2.0 * std::f64::consts::PI * f_hz * i as f64 * dt).sin();
+        }
+    }
+    ts
+}
+
+#[test]
+fn hidden_delay_and_disturbance_are_found_with_their_numbers() {
+    let machine = ModalMachine::default_machine();
+    let tw = twin(&machine);
+    let opts = DiagnoseOptions::default();
+    let dt = 1.0 / Daq::default().fs;
+    for seed in [21u64, 22] {
+        let mut rng = StdRng::seed_from_u64(seed);
+        // a constant delay of 2–5 samples in the response channels (acquisition chain)
+        let k = rng.gen_range(2..=5);
+        let recs: Vec<TimeSeries> = tests_on(&machine, 400 + seed)
+            .into_iter()
+            .map(|t| delayed(t, k))
+            .collect();
+        let (d, _) = diagnose(&tw, &recs, &opts).unwrap();
+        eprintln!(
+            "seed {seed} delay {k} samples -> {:?} {}",
+            d.cause, d.summary
+        );
+        assert_eq!(d.cause, Cause::TimeDelay, "{}", d.summary);
+        let got = d.details["delay_s"].as_f64().unwrap();
+        let want = k as f64 * dt;
+        assert!((got - want).abs() < 0.1 * want, "{got} s vs {want} s");
+        assert!(d.fit_after_pct > d.fit_before_pct + 1.0);
+        // a disturbance at a frequency away from the modes, in x
+        let f = rng.gen_range(600.0..700.0);
+        let recs: Vec<TimeSeries> = tests_on(&machine, 500 + seed)
+            .into_iter()
+            .map(|t| disturbed(t, Axis::X, f, 0.3))
+            .collect();
+        let (d, _) = diagnose(&tw, &recs, &opts).unwrap();
+        eprintln!(
+            "seed {seed} disturbance {f:.1} Hz -> {:?} {}",
+            d.cause, d.summary
+        );
+        assert_eq!(d.cause, Cause::Disturbance, "{}", d.summary);
+        let found: Vec<f64> = serde_json::from_value(d.details["freq_hz"].clone()).unwrap();
+        assert!(
+            found.iter().any(|g| (g - f).abs() < 0.005 * f),
+            "{found:?} vs {f}"
+        );
+        assert!(d.fit_after_pct > d.fit_before_pct);
+    }
+}
+
+#[test]
+fn hidden_cross_coupling_is_found() {
+    // the twin knows only x→x (hammer and sensor along x); the new tests also record y
+    let machine = ModalMachine::default_machine();
+    let opts = CampaignOptions {
+        fit: FitOptions {
+            band_hz: Some((30.0, 2500.0)),
+            ..FitOptions::default()
+        },
+        ..CampaignOptions::default()
+    };
+    let xonly = vec![impact_record(
+        &machine,
+        POSE,
+        Axis::X,
+        &[Axis::X],
+        5,
+        &Daq::default(),
+        1,
+    )];
+    let tw = identify_campaign(&xonly, &opts, &|_, _| {}).unwrap().twin;
+    let tests = vec![impact_record(
+        &machine,
+        POSE,
+        Axis::X,
+        &AXES,
+        5,
+        &Daq::default(),
+        77,
+    )];
+    let (d, ext) = diagnose(&tw, &tests, &DiagnoseOptions::default()).unwrap();
+    eprintln!("cross -> {:?} {}", d.cause, d.summary);
+    assert_eq!(d.cause, Cause::CrossCoupling, "{}", d.summary);
+    assert_eq!(d.details["channel"], "yx");
+    assert!(ext.channels.iter().any(|c| c.name() == "yx"));
+    assert!(d.fit_after_pct > d.fit_before_pct);
+}
