@@ -59,7 +59,8 @@ fn worst_fit(model: &ModalModel, truth: &Frf, band: (f64, f64)) -> f64 {
         .iter()
         .map(|c| match model.channel_index(c.channel) {
             Some(ci) => {
-                let est: Vec<Complex64> = b.freqs_hz.iter().map(|&f| model.eval_hz(ci, f)).collect();
+                let est: Vec<Complex64> =
+                    b.freqs_hz.iter().map(|&f| model.eval_hz(ci, f)).collect();
                 fit_percent(&c.h, &est)
             }
             None => f64::NEG_INFINITY,
@@ -249,7 +250,11 @@ fn case_c(dir: &Path) -> Res<Value> {
     let frf = est.frf.band(band.0, band.1);
     let mut truth = frf.clone();
     for c in &mut truth.channels {
-        c.h = truth.freqs_hz.iter().map(|&f| chain.receptance(f)).collect();
+        c.h = truth
+            .freqs_hz
+            .iter()
+            .map(|&f| chain.receptance(f))
+            .collect();
         c.coherence = None;
     }
     let (fp, tp) = (dir.join("c_frf.csv"), dir.join("c_truth.csv"));
@@ -351,8 +356,10 @@ fn case_e(machine: &ModalMachine) -> Res<Value> {
     });
     let us = ms * 1e3 / steps as f64;
     println!("e. FMU doStep (slave core, moving pose, 9 modes, 2 axes): {us:.3} us");
-    Ok(json!({"mtwin": {"us_per_step": us, "ms": ms, "steps": steps,
-                        "note": "slave core set_real + get_real + do_step, axes moving every step"}}))
+    Ok(
+        json!({"mtwin": {"us_per_step": us, "ms": ms, "steps": steps,
+                        "note": "slave core set_real + get_real + do_step, axes moving every step"}}),
+    )
 }
 
 fn main() -> Res<()> {
@@ -363,7 +370,9 @@ fn main() -> Res<()> {
     );
     std::fs::create_dir_all(&dir)?;
     // one thread, whatever RAYON_NUM_THREADS says: the peers run single-threaded too
-    rayon::ThreadPoolBuilder::new().num_threads(1).build_global()?;
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build_global()?;
     let machine = ModalMachine::default_machine();
     let out = json!({
         "a_frf": case_a(&dir, &machine)?,

@@ -6,4 +6,5 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup-bench.sh
 export RAYON_NUM_THREADS=1 OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1
+export TQDM_DISABLE=1  # sdypy-EMA progress bars
 exec .venv-bench/bin/python scripts/bench_peers.py "$@"
