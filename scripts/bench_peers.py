@@ -313,12 +313,16 @@ def main():
         "(`select_closest_poles`): it has no automatic choice (its alternative is the "
         "interactive stability chart). pLSCF with `pol_order_high=60`, LSFD with residuals; "
         "the pole search window `f_window` is its default 50 Hz capped at band / 20 (c: 2 Hz; "
-        "with the default 50 Hz it picks no pole on the 0.2-40 Hz chain, fit 0.2 %).",
+        "with the default 50 Hz it picks no pole on the 0.2-40 Hz chain, fit 0.2 %). "
+        "In b it takes the 410 Hz pole twice (425 Hz missed) and two poles near 1550 Hz "
+        "(1900 Hz missed); d was not investigated.",
         "* scikit-rf `vector_fit` is given the true number of modes as complex poles; "
         "`auto_fit` chooses the order itself (poles kept in brackets). The FRF is scaled to "
         "max |H| = 1 before fitting (the tool expects S-parameters).",
         "* mtwin chooses the order itself in every case (b, d: default options; c: the options "
-        "of `examples/paper_3dof.rs`, uniform weight). Case d for mtwin also tracks modes "
+        "of `examples/paper_3dof.rs`, uniform weight). In b it keeps 6 of the 8 modes (the "
+        "two weak high modes stay below the noise of the largest peak under its default "
+        "coherence weighting, see identify/benches/identify.rs). Case d for mtwin also tracks modes "
         "across poses and checks the pose interpolation (leave one out); the peers only do H1 "
         "and one fit per pose.",
         "* a: the mtwin and scipy H1 use the same nfft, periodic Hann window and 50 % "
