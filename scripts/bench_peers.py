@@ -327,6 +327,8 @@ def main():
         "and one fit per pose.",
         "* a: the mtwin and scipy H1 use the same nfft, periodic Hann window and 50 % "
         "overlap; scipy removes each segment's mean (its default), mtwin does not.",
+        "* The machine is shared (other checkouts may build at the same time): times vary by "
+        "up to about 30 % between runs of the script; the fits do not change.",
     ]
     text = "\n".join(head) + "\n" + tab.markdown() + "\n" + "\n".join(notes) + "\n"
     print(text)
