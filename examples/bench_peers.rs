@@ -1,0 +1,388 @@
+//! Benchmark cases for the side-by-side comparison with the Python tools
+//! (`scripts/bench_peers.sh`): writes the data of every case to a directory, runs
+//! mtwin's own step on it (median wall time of several runs, one thread) and writes
+//! `cases.json` with the fit against the analytic truth and the time.
+//!
+//! Run: `cargo run --release --example bench_peers -- DIR`
+//!
+//! Cases (fit = paper eq. 5, `identify::frf::fit_percent`, worst channel, vs the
+//! analytic FRF):
+//! * `a_frf`: H1 of a 60 s noise record of the virtual machine (force x, displacement
+//!   x and y, 1 % sensor noise) with [`estimate_frf`] (automatic Welch length);
+//! * `b_fit`: the 8-mode, 2-channel, 2000-line noisy FRF of `identify/benches/identify.rs`,
+//!   [`fit_frf`] with the automatic order;
+//! * `c_chain`: the paper's 3-DoF chain, periodic chirp, 0.1 % noise (as
+//!   `examples/paper_3dof.rs`), [`fit_frf`] with the options of that example;
+//! * `d_campaign`: 18 poses (3 × 3 × 2 grid) of noise records, [`identify_campaign`];
+//! * `e_fmu`: one doStep of the slave core (no C layer) on the 3 × 3 × 2 grid twin.
+
+use identify::axis::{Axis, Channel};
+use identify::campaign::{identify_campaign, CampaignOptions};
+use identify::frf::{fit_percent, Frf};
+use identify::model::{ChannelModel, ModalModel, Mode, ModeNum};
+use identify::rational_fit::{fit_frf, FitOptions, Weighting};
+use identify::read::{write_frf_csv, write_timeseries};
+use identify::spectra::{estimate_frf, Excitation, FrfOptions};
+use identify::timeseries::{ResponseKind, TimeSeries};
+use mtwin_fmu::slave::Slave;
+use num_complex::Complex64;
+use rand::rngs::StdRng;
+use rand::{Rng, SeedableRng};
+use serde_json::{json, Value};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+use vmachine::chain::MdofChain;
+use vmachine::daq::{acquire, chain_record, simulate_machine, Daq};
+use vmachine::excitation::{chirp, noise};
+use vmachine::structure::ModalMachine;
+
+type Res<T> = Result<T, Box<dyn std::error::Error>>;
+
+/// Median wall time in milliseconds of `runs` calls of `f` (after one warm-up call).
+fn median_ms<T>(runs: usize, mut f: impl FnMut() -> T) -> f64 {
+    std::hint::black_box(f());
+    let mut t: Vec<f64> = (0..runs)
+        .map(|_| {
+            let t0 = Instant::now();
+            std::hint::black_box(f());
+            t0.elapsed().as_secs_f64() * 1e3
+        })
+        .collect();
+    t.sort_by(f64::total_cmp);
+    t[t.len() / 2]
+}
+
+/// Worst channel fit of `model` against `truth` on the lines inside `band`.
+fn worst_fit(model: &ModalModel, truth: &Frf, band: (f64, f64)) -> f64 {
+    let b = truth.band(band.0, band.1);
+    b.channels
+        .iter()
+        .map(|c| match model.channel_index(c.channel) {
+            Some(ci) => {
+                let est: Vec<Complex64> =
+                    b.freqs_hz.iter().map(|&f| model.eval_hz(ci, f)).collect();
+                fit_percent(&c.h, &est)
+            }
+            None => f64::NEG_INFINITY,
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// Worst channel fit of an estimated FRF against `truth` (same grid) inside `band`.
+fn worst_fit_frf(est: &Frf, truth: &Frf, band: (f64, f64)) -> f64 {
+    let (e, t) = (est.band(band.0, band.1), truth.band(band.0, band.1));
+    t.channels
+        .iter()
+        .map(|c| {
+            e.channel(c.channel)
+                .map_or(f64::NEG_INFINITY, |ec| fit_percent(&c.h, &ec.h))
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// The channels of `frf` driven along `input`.
+fn input_channels(mut frf: Frf, input: Axis) -> Frf {
+    frf.channels.retain(|c| c.channel.input == input);
+    frf
+}
+
+/// The 8-mode, 2-channel truth of `identify/benches/identify.rs`.
+fn truth8() -> ModalModel {
+    let fs = [95.0, 180.0, 410.0, 425.0, 760.0, 1100.0, 1550.0, 1900.0];
+    let z = [0.03, 0.02, 0.015, 0.02, 0.025, 0.01, 0.03, 0.05];
+    let modes: Vec<Mode> = fs
+        .iter()
+        .zip(z)
+        .map(|(&f, z)| Mode::from_hz(f, z))
+        .collect();
+    let shape_x = [1.0, 0.4, 0.8, -0.6, 0.5, 0.3, -0.4, 0.2];
+    let shape_y = [0.3, 1.0, -0.5, 0.7, 0.6, -0.5, 0.3, 0.4];
+    let mass = 50.0;
+    let ch = |o: Axis, sh: &[f64; 8]| ChannelModel {
+        channel: Channel::new(o, Axis::X),
+        num: (0..8)
+            .map(|k| ModeNum {
+                b0: sh[k] * shape_x[k] / mass,
+                b1: 0.0,
+            })
+            .collect(),
+        d: 0.0,
+    };
+    ModalModel {
+        modes,
+        channels: vec![ch(Axis::X, &shape_x), ch(Axis::Y, &shape_y)],
+    }
+}
+
+/// The noisy FRF of `identify/benches/identify.rs` (1 % of |H| per line plus a floor).
+fn noisy(model: &ModalModel, freqs: &[f64], seed: u64) -> Frf {
+    let mut rng = StdRng::seed_from_u64(seed);
+    let mut frf = model.frf(freqs);
+    for c in &mut frf.channels {
+        let rms = (c.h.iter().map(|v| v.norm_sqr()).sum::<f64>() / c.h.len() as f64).sqrt();
+        let sigma: Vec<f64> = c.h.iter().map(|v| 0.01 * v.norm() + 1e-3 * rms).collect();
+        c.coherence = Some(
+            c.h.iter()
+                .zip(&sigma)
+                .map(|(v, s)| v.norm_sqr() / (v.norm_sqr() + s * s))
+                .collect(),
+        );
+        for (v, s) in c.h.iter_mut().zip(&sigma) {
+            let (a, b): (f64, f64) = (rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0));
+            *v += Complex64::new(a, b) * (s * 3f64.sqrt() / 2f64.sqrt());
+        }
+    }
+    frf
+}
+
+/// A noise record of `machine` standing at `pose`: force along x, displacement x and y.
+fn noise_record(machine: &ModalMachine, pose: [f64; 3], secs: f64, seed: u64) -> TimeSeries {
+    let daq = Daq {
+        response: ResponseKind::Displacement,
+        seed,
+        ..Daq::default()
+    };
+    let fs = daq.fs_sim();
+    let n = (secs * fs) as usize;
+    let forces = [Some(noise(n, 50.0, seed)), None, None];
+    let pose_at = move |_t: f64| pose;
+    let resp = simulate_machine(
+        machine,
+        &forces,
+        fs,
+        &pose_at,
+        &[Axis::X, Axis::Y],
+        daq.response,
+    );
+    acquire(forces, resp, &pose_at, &daq, &format!("noise_{seed}"))
+}
+
+fn path_str(p: &Path) -> String {
+    p.to_string_lossy().into_owned()
+}
+
+const MACHINE_BAND: (f64, f64) = (20.0, 2000.0);
+
+fn case_a(dir: &Path, machine: &ModalMachine) -> Res<Value> {
+    let pose = machine.center();
+    let rec = noise_record(machine, pose, 60.0, 3);
+    let ts = dir.join("a_noise.csv");
+    write_timeseries(&ts, &rec)?;
+    let opts = FrfOptions::default();
+    let est = estimate_frf(std::slice::from_ref(&rec), &opts)?;
+    let ms = median_ms(5, || estimate_frf(std::slice::from_ref(&rec), &opts));
+    let truth = input_channels(
+        machine.frf_at(pose, &est.frf.freqs_hz, &[Axis::X, Axis::Y]),
+        Axis::X,
+    );
+    let truth_path = dir.join("a_truth.csv");
+    write_frf_csv(&truth_path, &truth)?;
+    let fit = worst_fit_frf(&est.frf, &truth, MACHINE_BAND);
+    let nfft = (rec.fs() / est.df_hz).round() as usize;
+    println!(
+        "a. FRF estimation: {} ({} lines), fit {fit:.3} %, {ms:.1} ms",
+        est.method,
+        est.frf.freqs_hz.len()
+    );
+    Ok(json!({
+        "timeseries": path_str(&ts), "truth": path_str(&truth_path),
+        "nfft": nfft, "overlap": opts.overlap, "band": [MACHINE_BAND.0, MACHINE_BAND.1],
+        "method": est.method,
+        "mtwin": {"fit": fit, "ms": ms, "note": "estimate_frf, default options"},
+    }))
+}
+
+fn case_b(dir: &Path) -> Res<Value> {
+    let model = truth8();
+    let freqs: Vec<f64> = (0..2000).map(|k| 20.0 + k as f64).collect();
+    let frf = noisy(&model, &freqs, 7);
+    let truth = model.frf(&freqs);
+    let (fp, tp) = (dir.join("b_frf.csv"), dir.join("b_truth.csv"));
+    write_frf_csv(&fp, &frf)?;
+    write_frf_csv(&tp, &truth)?;
+    let opts = FitOptions::default();
+    let r = fit_frf(&frf, &opts)?;
+    let band = (freqs[0], freqs[freqs.len() - 1]);
+    let fit = worst_fit(&r.model, &truth, band);
+    let ms = median_ms(7, || fit_frf(&frf, &opts));
+    println!(
+        "b. 8 modes, 2 channels, 2000 lines: {} modes, fit {fit:.3} %, {ms:.1} ms",
+        r.model.modes.len()
+    );
+    Ok(json!({
+        "frf": path_str(&fp), "truth": path_str(&tp), "band": [band.0, band.1],
+        "natural_freqs_hz": model.modes.iter().map(Mode::freq_hz).collect::<Vec<_>>(),
+        "mtwin": {"fit": fit, "ms": ms, "modes": r.model.modes.len(),
+                  "note": "fit_frf, default options (automatic order)"},
+    }))
+}
+
+fn case_c(dir: &Path) -> Res<Value> {
+    let chain = MdofChain::paper_chain();
+    let d = Daq {
+        fs: 100.0,
+        oversample: 8,
+        force_noise: 0.001,
+        response_noise: 0.001,
+        response: ResponseKind::Displacement,
+        seed: 11,
+    };
+    let (period, periods) = (4096, 10);
+    let force = chirp(
+        d.fs_sim(),
+        period * d.oversample * periods,
+        0.2,
+        40.0,
+        10.0,
+        periods,
+    );
+    let rec = chain_record(&chain, force, &d, "paper_chirp");
+    let rec = identify::diagnose::slice(&rec, 4 * period, periods * period);
+    let est = estimate_frf(
+        &[rec],
+        &FrfOptions {
+            excitation: Excitation::Chirp,
+            nfft: Some(period),
+            ..FrfOptions::default()
+        },
+    )?;
+    let band = (0.2, 40.0);
+    let frf = est.frf.band(band.0, band.1);
+    let mut truth = frf.clone();
+    for c in &mut truth.channels {
+        c.h = truth
+            .freqs_hz
+            .iter()
+            .map(|&f| chain.receptance(f))
+            .collect();
+        c.coherence = None;
+    }
+    let (fp, tp) = (dir.join("c_frf.csv"), dir.join("c_truth.csv"));
+    write_frf_csv(&fp, &frf)?;
+    write_frf_csv(&tp, &truth)?;
+    // the options of examples/paper_3dof.rs (the paper's uniform weight W = 1)
+    let opts = FitOptions {
+        weighting: Weighting::Uniform,
+        band_hz: Some(band),
+        ..FitOptions::default()
+    };
+    let r = fit_frf(&frf, &opts)?;
+    let fit = worst_fit(&r.model, &truth, band);
+    let ms = median_ms(7, || fit_frf(&frf, &opts));
+    println!(
+        "c. paper 3-DoF chain ({} lines): {} modes, fit {fit:.3} %, {ms:.1} ms",
+        frf.freqs_hz.len(),
+        r.model.modes.len()
+    );
+    Ok(json!({
+        "frf": path_str(&fp), "truth": path_str(&tp), "band": [band.0, band.1],
+        "natural_freqs_hz": chain.natural_freqs_hz(),
+        "mtwin": {"fit": fit, "ms": ms, "modes": r.model.modes.len(),
+                  "note": "fit_frf, automatic order, uniform weight (as examples/paper_3dof.rs)"},
+    }))
+}
+
+fn case_d(dir: &Path, machine: &ModalMachine) -> Res<Value> {
+    let poses = machine.grid([3, 3, 2]);
+    let recs: Vec<TimeSeries> = poses
+        .iter()
+        .enumerate()
+        .map(|(i, &p)| noise_record(machine, p, 10.0, 100 + i as u64))
+        .collect();
+    let opts = CampaignOptions::default();
+    let res = identify_campaign(&recs, &opts, &|_, _| {})?;
+    let ms = median_ms(3, || identify_campaign(&recs, &opts, &|_, _| {}));
+    let mut entries = Vec::new();
+    let mut worst = f64::INFINITY;
+    for (i, (p, rec)) in poses.iter().zip(&recs).enumerate() {
+        let ts = dir.join(format!("d_pose{i:02}.csv"));
+        write_timeseries(&ts, rec)?;
+        let pm = res
+            .twin
+            .poses
+            .iter()
+            .min_by(|a, b| {
+                let d = |q: &[f64; 3]| (0..3).map(|k| (q[k] - p[k]).powi(2)).sum::<f64>();
+                d(&a.pose).total_cmp(&d(&b.pose))
+            })
+            .ok_or("no pose model")?;
+        let truth = input_channels(
+            machine.frf_at(*p, &pm.frf.freqs_hz, &[Axis::X, Axis::Y]),
+            Axis::X,
+        );
+        let tp = dir.join(format!("d_truth{i:02}.csv"));
+        write_frf_csv(&tp, &truth)?;
+        worst = worst.min(worst_fit(&pm.model, &truth, MACHINE_BAND));
+        let nat: Vec<f64> = (0..machine.modes.len())
+            .map(|k| machine.mode_at(k, *p).freq_hz())
+            .collect();
+        entries.push(json!({"timeseries": path_str(&ts), "truth": path_str(&tp),
+                            "natural_freqs_hz": nat}));
+    }
+    let df = res.twin.poses[0].frf.freqs_hz[0];
+    let nfft = (recs[0].fs() / df).round() as usize;
+    println!(
+        "d. campaign of {} poses: worst fit {worst:.3} %, {ms:.0} ms",
+        poses.len()
+    );
+    Ok(json!({
+        "poses": entries, "nfft": nfft, "overlap": opts.frf.overlap,
+        "band": [MACHINE_BAND.0, MACHINE_BAND.1],
+        "mtwin": {"fit": worst, "ms": ms,
+                  "note": "identify_campaign, default options: H1 + automatic-order fit per pose, mode tracking, leave-one-out interpolation check"},
+    }))
+}
+
+fn case_e(machine: &ModalMachine) -> Res<Value> {
+    let twin = machine.exact_twin([3, 3, 2], &[Axis::X, Axis::Y]);
+    let mut s = Slave::new(&twin)?;
+    s.enter_init()?;
+    s.exit_init()?;
+    let steps = 100_000;
+    let dt = 1e-4;
+    let mut t = 0.0;
+    let mut k = 0u64;
+    let ms = median_ms(5, || -> Result<f64, String> {
+        let mut y = [0.0; 2];
+        for _ in 0..steps {
+            k += 1;
+            let x = 0.3 + 0.2 * ((k % 1000) as f64 * 1e-3);
+            s.set_real(&[0, 1, 2, 3], &[100.0, -50.0, x, 0.2])?;
+            s.get_real(&[5, 6], &mut y)?;
+            s.do_step(t, dt)?;
+            t += dt;
+        }
+        Ok(y[0])
+    });
+    let us = ms * 1e3 / steps as f64;
+    println!("e. FMU doStep (slave core, moving pose, 9 modes, 2 axes): {us:.3} us");
+    Ok(
+        json!({"mtwin": {"us_per_step": us, "ms": ms, "steps": steps,
+                        "note": "slave core set_real + get_real + do_step, axes moving every step"}}),
+    )
+}
+
+fn main() -> Res<()> {
+    let dir = PathBuf::from(
+        std::env::args()
+            .nth(1)
+            .ok_or("usage: bench_peers DIR (where the case files and cases.json go)")?,
+    );
+    std::fs::create_dir_all(&dir)?;
+    // one thread, whatever RAYON_NUM_THREADS says: the peers run single-threaded too
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build_global()?;
+    let machine = ModalMachine::default_machine();
+    let out = json!({
+        "a_frf": case_a(&dir, &machine)?,
+        "b_fit": case_b(&dir)?,
+        "c_chain": case_c(&dir)?,
+        "d_campaign": case_d(&dir, &machine)?,
+        "e_fmu": case_e(&machine)?,
+    });
+    let p = dir.join("cases.json");
+    std::fs::write(&p, serde_json::to_string_pretty(&out)?)?;
+    println!("wrote {}", p.display());
+    Ok(())
+}

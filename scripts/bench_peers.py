@@ -1,0 +1,340 @@
+#!/usr/bin/env python3
+"""mtwin side by side with the Python tools a user would otherwise pick, on the same data.
+
+Run through scripts/bench_peers.sh (it sets up .venv-bench and one thread everywhere).
+Builds and runs `cargo run --release --example bench_peers -- DIR` (which writes the
+cases and mtwin's own results to DIR/cases.json), runs each peer on the same files and
+prints one Markdown table: case | tool | fit % vs truth | time ms | speed-up of mtwin.
+
+Fit = paper eq. 5 (identify::frf::fit_percent), worst channel, against the analytic
+FRF on the case's band. Time = median wall time of several runs (data already in
+memory; reading files is not timed), one thread.
+
+Peers, used as their docs show:
+* scipy: H1 = csd(f, y) / welch(f), same nfft, Hann window and overlap as mtwin (scipy's
+  default constant detrend).
+* sdypy-EMA: Model(frf, freq, lower, upper, pol_order_high=60, frf_form='receptance'),
+  get_poles() (pLSCF), select_closest_poles(true natural frequencies: sdypy-EMA has no
+  automatic pole choice, the alternative is its interactive stability chart; search
+  window min(50 Hz default, band / 20)), then
+  get_constants() (LSFD with lower and upper residuals). The identified model (poles,
+  modal constants, residuals) is evaluated on the truth's lines.
+* scikit-rf: VectorFitting on a Network whose S[:, i, 0] are the FRF channels (input x;
+  the other column zero), scaled to max |H| = 1 (the tool fits S-parameters of order 1;
+  its auto_fit error target is absolute); vector_fit(n_poles_real=0, n_poles_cmplx=true
+  number of modes) and auto_fit() with its defaults.
+"""
+
+import argparse
+import json
+import os
+import platform
+import subprocess
+import sys
+import tempfile
+import time
+import warnings
+from importlib.metadata import version
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import scipy.signal
+import skrf
+from skrf.vectorFitting import VectorFitting
+from sdypy import EMA
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def fit_percent(truth, model):
+    truth = np.asarray(truth)
+    model = np.asarray(model)
+    den = np.linalg.norm(truth - truth.mean())
+    return (1.0 - np.linalg.norm(truth - model) / den) * 100.0
+
+
+def read_frf(path):
+    df = pd.read_csv(path, comment="#")
+    f = df["f_hz"].to_numpy()
+    chans = [c[:-3] for c in df.columns if c.endswith("_re")]
+    h = np.array([df[c + "_re"].to_numpy() + 1j * df[c + "_im"].to_numpy() for c in chans])
+    return f, chans, h
+
+
+def read_ts(path):
+    df = pd.read_csv(path, comment="#")
+    t = df["t"].to_numpy()
+    fs = 1.0 / np.mean(np.diff(t))
+    f = df["fx"].to_numpy()
+    ys = np.array([df[c].to_numpy() for c in ("dx", "dy")])
+    return fs, f, ys
+
+
+def timed(runs, fn):
+    """(result of a first call, median ms of `runs` further calls)."""
+    res = fn()
+    ts = []
+    for _ in range(runs):
+        t0 = time.perf_counter()
+        fn()
+        ts.append((time.perf_counter() - t0) * 1e3)
+    return res, float(np.median(ts))
+
+
+def worst_fit(freq_truth, h_truth, band, evaluate):
+    """Worst channel fit of `evaluate(freqs) -> (n_ch, n_f)` vs the truth inside band."""
+    m = (freq_truth >= band[0]) & (freq_truth <= band[1])
+    est = evaluate(freq_truth[m])
+    return min(fit_percent(h_truth[c, m], est[c]) for c in range(h_truth.shape[0]))
+
+
+# ---------------------------------------------------------------- peers
+
+
+def scipy_h1(fs, f, ys, nfft, overlap):
+    """H1 = Gfy / Gff on lines 1 .. nfft/2 - 1 (as mtwin: no 0 Hz, no Nyquist)."""
+    kw = dict(fs=fs, window="hann", nperseg=nfft, noverlap=int(round(nfft * overlap)))
+    freq, pff = scipy.signal.welch(f, **kw)
+    _, pfy = scipy.signal.csd(f[None, :], ys, **kw)
+    h = pfy / pff[None, :]
+    sl = slice(1, nfft // 2)
+    return freq[sl], h[:, sl]
+
+
+def sdypy_fit(freq, h, band, nat_freqs):
+    # select_closest_poles' default window (50 Hz) suits kHz bands: scaled to the band
+    f_window = min(50.0, (band[1] - band[0]) / 20.0)
+    with warnings.catch_warnings():  # "upper outside the range, clamping" when band = data
+        warnings.simplefilter("ignore", UserWarning)
+        m = EMA.Model(frf=h, freq=freq, lower=band[0], upper=band[1], pol_order_high=60,
+                      frf_form="receptance")
+        m.get_poles(show_progress=False)
+        m.select_closest_poles(list(nat_freqs), f_window=f_window)
+        m.get_constants(whose_poles="own", FRF_ind="all")
+    poles = np.array([m.all_poles[i][j] for i, j in m.pole_ind])
+    A, LR, UR = m.A, m.LR, m.UR
+
+    def evaluate(fr):
+        jw = 2j * np.pi * fr[None, :]
+        out = np.zeros((A.shape[0], len(fr)), complex)
+        for k, p in enumerate(poles):
+            out += A[:, k:k + 1] / (jw - p) + np.conj(A[:, k:k + 1]) / (jw - np.conj(p))
+        out += -LR[:, None] / (2 * np.pi * fr[None, :]) ** 2 + UR[:, None]
+        return out
+
+    return evaluate
+
+
+def skrf_fit(freq, h, band, n_modes, auto):
+    m = (freq >= band[0]) & (freq <= band[1])
+    fr, hb = freq[m], h[:, m]
+    scale = np.abs(hb).max()
+    nch = hb.shape[0]
+    s = np.zeros((len(fr), nch, nch), complex)
+    s[:, :, 0] = (hb / scale).T
+    nw = skrf.Network(frequency=skrf.Frequency.from_f(fr, unit="hz"), s=s)
+    vf = VectorFitting(nw)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        if auto:
+            vf.auto_fit()
+        else:
+            vf.vector_fit(n_poles_real=0, n_poles_cmplx=n_modes)
+
+    def evaluate(f_eval):
+        return np.array([vf.get_model_response(c, 0, f_eval) for c in range(nch)]) * scale
+
+    return evaluate, len(vf.poles)
+
+
+FITTERS = {
+    "sdypy-EMA pLSCF (true frequencies given)": lambda fr, h, band, nat: (
+        sdypy_fit(fr, h, band, nat), None),
+    "scikit-rf vector_fit (true order)": lambda fr, h, band, nat: skrf_fit(
+        fr, h, band, len(nat), auto=False),
+    "scikit-rf auto_fit": lambda fr, h, band, nat: skrf_fit(fr, h, band, len(nat), auto=True),
+}
+
+
+# ---------------------------------------------------------------- table
+
+
+class Table:
+    def __init__(self):
+        self.rows = []
+
+    def mtwin(self, case, tool, fit, ms):
+        self.base = ms
+        self.rows.append((case, tool, f"{fit:.3f}", f"{ms:.1f}", "(base)"))
+
+    def peer(self, case, tool, fn):
+        try:
+            fit, ms, extra = fn()
+            label = tool + (f" [{extra}]" if extra else "")
+            self.rows.append((case, label, f"{fit:.3f}", f"{ms:.1f}",
+                              f"{ms / self.base:.1f}x"))
+        except Exception as e:  # a peer failing is a result too
+            msg = f"{type(e).__name__}: {e}".replace("|", "/").replace("\n", " ")[:160]
+            self.rows.append((case, tool, f"failed: {msg}", "-", "-"))
+        print(" | ".join(self.rows[-1]), file=sys.stderr, flush=True)
+
+    def markdown(self):
+        out = ["| case | tool | fit % vs truth | time ms | speed-up of mtwin |",
+               "| --- | --- | ---: | ---: | ---: |"]
+        out += ["| " + " | ".join(r) + " |" for r in self.rows]
+        return "\n".join(out)
+
+
+def fit_case(tab, case, data_frf, truth, band, nat, runs):
+    """Every fitter on one FRF: (freq, h) measured, (freq, h) truth."""
+    fr, h = data_frf
+    ft, ht = truth
+    for name, fitter in FITTERS.items():
+        def one(fitter=fitter):
+            (ev, npoles), ms = timed(runs, lambda: fitter(fr, h, band, nat))
+            extra = f"{npoles} poles" if npoles is not None and "auto" in name else ""
+            return worst_fit(ft, ht, band, ev), ms, extra
+        tab.peer(case, name, one)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--dir", help="case directory (default: a temporary one)")
+    ap.add_argument("--out", help="also write the Markdown report here")
+    ap.add_argument("--no-build", action="store_true", help="reuse DIR/cases.json")
+    args = ap.parse_args()
+    tmp = None
+    if args.dir:
+        d = Path(args.dir)
+    else:
+        tmp = tempfile.TemporaryDirectory(prefix="mtwin-bench-")
+        d = Path(tmp.name)
+    if not args.no_build:
+        subprocess.run(["cargo", "run", "--release", "-q", "--example", "bench_peers", "--",
+                        str(d)], cwd=ROOT, check=True, stdout=sys.stderr)
+    cases = json.loads((d / "cases.json").read_text())
+    tab = Table()
+
+    # a. FRF estimation
+    c = cases["a_frf"]
+    band = tuple(c["band"])
+    fs, f, ys = read_ts(c["timeseries"])
+    ft, _, ht = read_frf(c["truth"])
+    tab.mtwin("a. FRF estimation, 60 s noise, 2 ch", "mtwin estimate_frf (H1, Welch)",
+              c["mtwin"]["fit"], c["mtwin"]["ms"])
+
+    def a_scipy():
+        (fr, h), ms = timed(5, lambda: scipy_h1(fs, f, ys, c["nfft"], c["overlap"]))
+        assert np.allclose(fr, ft), "scipy lines differ from mtwin's"
+        m = (ft >= band[0]) & (ft <= band[1])
+        return min(fit_percent(ht[k, m], h[k, m]) for k in range(2)), ms, ""
+    tab.peer("a. FRF estimation, 60 s noise, 2 ch",
+             f"scipy csd/welch H1 (nfft {c['nfft']}, Hann, 50 %)", a_scipy)
+
+    # b. one pose, 8 modes
+    c = cases["b_fit"]
+    case = "b. 8 modes, 2 ch, 2000 lines, 1 % noise"
+    fr, _, h = read_frf(c["frf"])
+    ft, _, ht = read_frf(c["truth"])
+    tab.mtwin(case, f"mtwin fit_frf (automatic order: {c['mtwin']['modes']} modes)",
+              c["mtwin"]["fit"], c["mtwin"]["ms"])
+    fit_case(tab, case, (fr, h), (ft, ht), tuple(c["band"]), c["natural_freqs_hz"], 5)
+
+    # c. paper chain
+    c = cases["c_chain"]
+    case = "c. paper 3-DoF chain, chirp, 0.1 % noise"
+    fr, _, h = read_frf(c["frf"])
+    ft, _, ht = read_frf(c["truth"])
+    tab.mtwin(case, f"mtwin fit_frf (automatic order: {c['mtwin']['modes']} modes)",
+              c["mtwin"]["fit"], c["mtwin"]["ms"])
+    fit_case(tab, case, (fr, h), (ft, ht), tuple(c["band"]), c["natural_freqs_hz"], 5)
+
+    # d. campaign
+    c = cases["d_campaign"]
+    n = len(c["poses"])
+    case = f"d. campaign, {n} poses, 10 s noise each (worst pose)"
+    band = tuple(c["band"])
+    poses = []
+    for p in c["poses"]:
+        ft, _, ht = read_frf(p["truth"])
+        poses.append((read_ts(p["timeseries"]), (ft, ht), p["natural_freqs_hz"]))
+    tab.mtwin(case, "mtwin identify_campaign", c["mtwin"]["fit"], c["mtwin"]["ms"])
+    for name, fitter in FITTERS.items():
+        def one(fitter=fitter):
+            t0 = time.perf_counter()
+            models = []
+            for (fs, f, ys), _, nat in poses:
+                fr, h = scipy_h1(fs, f, ys, c["nfft"], c["overlap"])
+                models.append(fitter(fr, h, band, nat)[0])
+            ms = (time.perf_counter() - t0) * 1e3
+            worst = min(worst_fit(tr[0], tr[1], band, ev) for ev, (_, tr, _) in
+                        zip(models, poses))
+            return worst, ms, ""
+        tab.peer(case, "scipy H1 + " + name, one)
+
+    # e. FMU
+    c = cases["e_fmu"]["mtwin"]
+    tab.rows.append(("e. FMU doStep (9 modes, 2 axes, moving pose)",
+                     f"mtwin slave core, set_real + get_real + do_step "
+                     f"({c['us_per_step']:.2f} µs per step)", "-",
+                     f"{c['us_per_step'] / 1e3:.5f}", "-"))
+    tab.rows.append(("e. FMU doStep", "no Python peer; through the C API see "
+                     "`cargo bench -p mtwin-fmu --bench do_step`, scripts/bench_fmu_share.py",
+                     "-", "-", "-"))
+
+    cpu = next((ln.split(":", 1)[1].strip() for ln in open("/proc/cpuinfo")
+                if ln.startswith("model name")), platform.processor())
+    rustc = subprocess.run(["rustc", "--version"], capture_output=True, text=True).stdout.strip()
+    pk = ", ".join(f"{p} {version(p)}" for p in ("numpy", "scipy", "sdypy-EMA", "scikit-rf"))
+    head = [
+        "# mtwin and its Python peers, side by side",
+        "",
+        f"Date: {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}. Machine: {os.cpu_count()} "
+        f"cores (`nproc`), {cpu}. One thread everywhere (RAYON_NUM_THREADS=1, "
+        "OPENBLAS/OMP/MKL_NUM_THREADS=1).",
+        f"{rustc}; Python {platform.python_version()}: {pk}.",
+        "",
+        "Command: `scripts/bench_peers.sh` (data and mtwin's numbers from "
+        "`cargo run --release --example bench_peers -- DIR`, the peers from "
+        "`scripts/bench_peers.py`).",
+        "",
+        "Fit % = paper eq. 5 (`identify::frf::fit_percent`) against the analytic FRF, worst "
+        "channel, on the case's band (a, d: 20-2000 Hz; b: 20-2019 Hz; c: 0.2-40 Hz). "
+        "Time = median wall time of several runs, data in memory (d: one pass over "
+        "all poses for the peers, median of 3 for mtwin). "
+        "Speed-up = peer time / mtwin time.",
+        "",
+    ]
+    notes = [
+        "",
+        "Notes:",
+        "* sdypy-EMA is given the TRUE natural frequencies to pick its poles "
+        "(`select_closest_poles`): it has no automatic choice (its alternative is the "
+        "interactive stability chart). pLSCF with `pol_order_high=60`, LSFD with residuals; "
+        "the pole search window `f_window` is its default 50 Hz capped at band / 20 (c: 2 Hz; "
+        "with the default 50 Hz it picks no pole on the 0.2-40 Hz chain, fit 0.2 %). "
+        "In b it takes the 410 Hz pole twice (425 Hz missed) and two poles near 1550 Hz "
+        "(1900 Hz missed); d was not investigated.",
+        "* scikit-rf `vector_fit` is given the true number of modes as complex poles; "
+        "`auto_fit` chooses the order itself (poles kept in brackets). The FRF is scaled to "
+        "max |H| = 1 before fitting (the tool expects S-parameters).",
+        "* mtwin chooses the order itself in every case (b, d: default options; c: the options "
+        "of `examples/paper_3dof.rs`, uniform weight). In b it keeps 6 of the 8 modes (the "
+        "two weak high modes stay below the noise of the largest peak under its default "
+        "coherence weighting, see identify/benches/identify.rs). Case d for mtwin also tracks modes "
+        "across poses and checks the pose interpolation (leave one out); the peers only do H1 "
+        "and one fit per pose.",
+        "* a: the mtwin and scipy H1 use the same nfft, periodic Hann window and 50 % "
+        "overlap; scipy removes each segment's mean (its default), mtwin does not.",
+        "* The machine is shared (other checkouts may build at the same time): times vary by "
+        "up to about 30 % between runs of the script; the fits do not change.",
+    ]
+    text = "\n".join(head) + "\n" + tab.markdown() + "\n" + "\n".join(notes) + "\n"
+    print(text)
+    if args.out:
+        Path(args.out).write_text(text)
+
+
+if __name__ == "__main__":
+    main()
