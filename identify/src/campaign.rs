@@ -415,7 +415,11 @@ fn track_modes(fits: &mut [PoseFit], opts: &CampaignOptions) -> Result<Vec<Strin
             mean_fit(&channel_fits(&own, &fits[i].frf, band))
         };
         let carried = mean_fit(&channel_fits(&refined, &fits[i].frf, band));
-        if carried < own - 1.0 {
+        // The neighbour's modes carried over can get stuck far from this pose's optimum
+        // (modes move by several per cent across a workspace); when the pose's own fit has
+        // the same modes and fits better, keep it, matched to the neighbour's mode order.
+        let own_is_better = fits[i].model.modes.len() == m && own > carried + 0.1;
+        if carried < own - 1.0 && !own_is_better {
             warnings.push(format!(
                 "pose {:?}: tracked model fits {carried:.2} % vs {own:.2} % for the pose's own \
                  fit ({} modes); the pose may hold a mode its neighbours lack",
@@ -426,7 +430,11 @@ fn track_modes(fits: &mut [PoseFit], opts: &CampaignOptions) -> Result<Vec<Strin
         if let Some(s) = fits[i].sigma {
             refined.shift_poles(s);
         }
-        let refined = match_modes(&fits[j].model, &refined);
+        let refined = if own_is_better {
+            match_modes(&fits[j].model, &fits[i].model)
+        } else {
+            match_modes(&fits[j].model, &refined)
+        };
         fits[i].model = refined;
         fits[i].order.modes = m;
         tracked[i] = true;
