@@ -1,6 +1,9 @@
 //! The built shared library through its C API, loaded with libloading (as an importer
 //! would): life cycle, NULL pointers, unknown references, and a seeded random sequence of
 //! calls in any order — every call returns a status, none crashes the host.
+//!
+//! `MTWIN_FUZZ_CALLS` (default 20000) sets the number of random calls and
+//! `MTWIN_FUZZ_SEED` (default a fixed seed) the seed; `scripts/fuzz.sh` raises both.
 
 use identify::axis::Axis;
 use identify::twin::Twin;
@@ -30,6 +33,25 @@ fn twin_dir() -> (tempfile::TempDir, Twin) {
     std::fs::create_dir_all(&res).expect("mkdir");
     twin.save(&res.join("twin.json")).expect("save");
     (d, twin)
+}
+
+/// `MTWIN_FUZZ_CALLS` and `MTWIN_FUZZ_SEED` (decimal or `0x` hex), with defaults.
+fn fuzz_settings() -> (u64, u64) {
+    let num = |name: &str| {
+        std::env::var(name).ok().and_then(|s| {
+            let s = s.trim();
+            match s.strip_prefix("0x") {
+                Some(h) => u64::from_str_radix(h, 16).ok(),
+                None => s.parse().ok(),
+            }
+        })
+    };
+    let calls = num("MTWIN_FUZZ_CALLS").unwrap_or(20_000);
+    // xorshift needs a non-zero state
+    let seed = num("MTWIN_FUZZ_SEED")
+        .filter(|&s| s != 0)
+        .unwrap_or(0x2545_F491_4F6C_DD1D);
+    (calls, seed)
 }
 
 #[test]
@@ -118,7 +140,9 @@ fn c_api_survives_misuse_and_random_call_sequences() {
         assert_eq!(get(c, std::ptr::null(), 2, std::ptr::null_mut()), 3);
         assert_eq!(get(c, std::ptr::null(), 0, std::ptr::null_mut()), 0);
         // random sequences: any order, any values
-        let mut seed = 0x2545_F491_4F6C_DD1Du64;
+        let (calls, mut seed) = fuzz_settings();
+        let seed0 = seed;
+        eprintln!("fuzz: {calls} random calls, seed {seed0:#x}");
         let mut rnd = || {
             seed ^= seed << 13;
             seed ^= seed >> 7;
@@ -126,7 +150,7 @@ fn c_api_survives_misuse_and_random_call_sequences() {
             seed
         };
         let mut t = 0.0;
-        for _ in 0..20_000 {
+        for _ in 0..calls {
             let r = rnd();
             let vr = [(r >> 8) as u32 % 10];
             let v = [f64::from_bits(rnd()) * if r & 1 == 0 { 1.0 } else { 0.0 }
@@ -150,12 +174,18 @@ fn c_api_survives_misuse_and_random_call_sequences() {
                 }
                 _ => step(c, f64::from_bits(rnd()), 1e-3, 1),
             };
-            assert!(st == 0 || st == 3, "status {st}");
+            assert!(
+                st == 0 || st == 3,
+                "status {st} (MTWIN_FUZZ_SEED={seed0:#x})"
+            );
             if r % 9 == 4 && st == 0 {
                 t = 0.0;
             }
             if r % 9 == 5 && st == 0 {
-                assert!(out[0].is_finite());
+                assert!(
+                    out[0].is_finite(),
+                    "non-finite output (MTWIN_FUZZ_SEED={seed0:#x})"
+                );
             }
         }
         free(c);
