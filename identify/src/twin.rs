@@ -46,8 +46,16 @@ impl Default for Units {
 pub struct ChannelFit {
     /// The channel.
     pub channel: Channel,
-    /// Fit in percent (paper's equation 5) within the fitted band.
+    /// Fit in percent (paper's equation 5) within the fitted band; `-inf` when the
+    /// measured channel is constant (the metric is undefined). JSON has no infinity:
+    /// `-inf` is written as `null` and `null` reads back as `-inf`.
+    #[serde(deserialize_with = "fit_or_null")]
     pub fit_pct: f64,
+}
+
+/// A fit percentage, `null` (how serde_json writes a non-finite number) read as `-inf`.
+fn fit_or_null<'de, D: serde::Deserializer<'de>>(d: D) -> std::result::Result<f64, D::Error> {
+    Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NEG_INFINITY))
 }
 
 /// How the model order of a pose was chosen.
