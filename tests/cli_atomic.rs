@@ -37,9 +37,18 @@ fn setup(dir: &Path, seconds: f64) -> (PathBuf, PathBuf) {
 
 fn refit_cmd(twin: &Path, data: &Path, out: &Path) -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_mtwin"));
-    c.args(["refit", "--quiet", "--force", "--twin", s(twin), s(data), "--out", s(out)])
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped());
+    c.args([
+        "refit",
+        "--quiet",
+        "--force",
+        "--twin",
+        s(twin),
+        s(data),
+        "--out",
+        s(out),
+    ])
+    .stdout(Stdio::null())
+    .stderr(Stdio::piped());
     c
 }
 
@@ -74,7 +83,9 @@ fn killed_refit_never_damages_input_or_output() {
     assert!(extra_files(d.path(), &[&twin, &data, &out]).is_empty());
 
     let mut outcomes = (0, 0);
-    for frac in [0.02, 0.1, 0.25, 0.4, 0.55, 0.7, 0.8, 0.9, 0.95, 0.98, 1.0, 1.05] {
+    for frac in [
+        0.02, 0.1, 0.25, 0.4, 0.55, 0.7, 0.8, 0.9, 0.95, 0.98, 1.0, 1.05,
+    ] {
         // an old output exists: a copy of the input twin
         std::fs::write(&out, &twin_bytes).unwrap();
         let mut child = refit_cmd(&twin, &data, &out).spawn().expect("spawn");
@@ -82,8 +93,16 @@ fn killed_refit_never_damages_input_or_output() {
         std::thread::sleep(full.mul_f64(frac));
         let _ = child.kill(); // SIGKILL on Unix; an error means it had already exited
         let status = child.wait().expect("wait");
-        assert_eq!(std::fs::read(&twin).unwrap(), twin_bytes, "input twin changed");
-        assert_eq!(std::fs::read(&data).unwrap(), data_bytes, "input data changed");
+        assert_eq!(
+            std::fs::read(&twin).unwrap(),
+            twin_bytes,
+            "input twin changed"
+        );
+        assert_eq!(
+            std::fs::read(&data).unwrap(),
+            data_bytes,
+            "input data changed"
+        );
         let now = std::fs::read(&out).expect("the --out file must still exist");
         if now == twin_bytes {
             outcomes.0 += 1;

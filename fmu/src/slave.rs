@@ -107,9 +107,18 @@ impl Snapshot {
             *v = f(17 + 8 * k);
         }
         let base = 17 + 48;
-        let state = (0..n)
+        let state: Vec<[f64; 2]> = (0..n)
             .map(|k| [f(base + 16 * k), f(base + 16 * k + 8)])
             .collect();
+        // a state that would make the outputs NaN or infinite is corrupt
+        let finite = time.is_finite()
+            && inputs.iter().all(|v| v.is_finite())
+            && state.iter().flatten().all(|v| v.is_finite());
+        if !finite {
+            return Err(
+                "serialized FMU state holds a NaN or infinite number: it is corrupt".into(),
+            );
+        }
         Ok(Snapshot {
             time,
             inputs,
@@ -329,5 +338,35 @@ impl Slave {
             self.phase = Phase::StepComplete;
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Snapshot;
+
+    /// Found by the random C-API test (fmu/tests/ffi.rs): a serialized state with a NaN
+    /// written over one of its numbers deserialized fine, and after fmi2SetFMUstate the
+    /// outputs were NaN.
+    #[test]
+    fn corrupt_state_with_non_finite_numbers_is_refused() {
+        let s = Snapshot {
+            time: 0.5,
+            inputs: [1.0, 2.0, 0.0, 0.1, 0.2, 0.3],
+            state: vec![[1e-6, -2e-3]; 3],
+            phase_stepping: true,
+        };
+        let good = s.to_bytes();
+        assert!(Snapshot::from_bytes(&good).is_ok());
+        // the time, every input and every state number
+        let offsets = std::iter::once(8).chain((0..(good.len() - 17) / 8).map(|k| 17 + 8 * k));
+        for at in offsets {
+            for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+                let mut b = good.clone();
+                b[at..at + 8].copy_from_slice(&bad.to_le_bytes());
+                let e = Snapshot::from_bytes(&b).expect_err("non-finite number");
+                assert!(e.contains("corrupt"), "{e}");
+            }
+        }
     }
 }
