@@ -84,14 +84,18 @@ fn check_timeseries(r: &identify::Result<TimeSeries>) -> Result<(), String> {
     if !last.is_finite() {
         return Err(format!("time of the last sample {last} is not finite"));
     }
-    for col in ts.force.iter().chain(&ts.response).chain(&ts.position) {
-        if let Some(v) = col {
-            if v.len() != n {
-                return Err(format!("column length {} != {n}", v.len()));
-            }
-            if !all_finite(v) {
-                return Err("non-finite sample".into());
-            }
+    for v in ts
+        .force
+        .iter()
+        .chain(&ts.response)
+        .chain(&ts.position)
+        .flatten()
+    {
+        if v.len() != n {
+            return Err(format!("column length {} != {n}", v.len()));
+        }
+        if !all_finite(v) {
+            return Err("non-finite sample".into());
         }
     }
     if ts.force_axes().is_empty() {
