@@ -29,8 +29,9 @@ if [[ ! -f $log ]]; then
 # Fuzz log
 
 Appended by `scripts/fuzz.sh`: one line per target and run. "inputs" counts generated
-inputs (proptest cases over both properties of a reader target; random C-API calls for
-the FMU). "failures" counts failing rounds; their output is in `fuzz/failures/`.
+inputs of the rounds that passed (proptest cases over both properties of a reader
+target; random C-API calls for the FMU). "failures" counts failing rounds; their output
+is in `fuzz/failures/` (not committed).
 
 | date (UTC) | target | seconds | rounds | inputs tried | failures |
 |---|---|---|---|---|---|
@@ -81,19 +82,20 @@ for target in "${targets[@]}"; do
         if ((rc == 124)); then
             echo "$target: round of $n stopped at the budget" >&2
         elif ((rc != 0)); then
+            # a failing round stops early: its inputs are not counted, and the next
+            # round is not larger
             failures=$((failures + 1))
             any_failed=1
             keep=fuzz/failures/${target/:/-}-$(date -u +%Y%m%dT%H%M%S).txt
             cp "$out" "$keep"
             echo "$target: FAILURE (round of $n), output in $keep" >&2
-            inputs=$((inputs + per_round))
         else
             inputs=$((inputs + per_round))
+            # double the round while a doubled round still fits in what is left
+            left=$((start + share - $(date +%s)))
+            if ((2 * took + 1 < left)); then n=$((n * 2)); fi
         fi
         rm -f "$out"
-        # double the round while a doubled round still fits in what is left
-        left=$((start + share - $(date +%s)))
-        if ((2 * took + 1 < left)); then n=$((n * 2)); fi
     done
     secs=$(($(date +%s) - start))
     echo "$target: ${secs} s, $rounds rounds, $inputs inputs, $failures failures" >&2

@@ -283,7 +283,17 @@ impl Slave {
         for (vr, o) in vrs.iter().zip(out.iter_mut()) {
             let var = self.var(*vr)?;
             *o = match var {
-                Var::Disp(a) => y.get_or_insert_with(|| self.outputs())[a.index()],
+                Var::Disp(a) => {
+                    let v = y.get_or_insert_with(|| self.outputs())[a.index()];
+                    if !v.is_finite() {
+                        return Err(format!(
+                            "{} is not finite: the forces or the restored FMU state are far \
+                             out of range",
+                            var.name()
+                        ));
+                    }
+                    v
+                }
                 other => self.inputs[Self::slot(other).unwrap_or(0)],
             };
         }
@@ -312,6 +322,14 @@ impl Slave {
             let u = self.force();
             let model = self.ev.model_at(pose);
             self.sim.step(model, &u, &u, h);
+            if !self.sim.state().iter().flatten().all(|v| v.is_finite()) {
+                // only absurd forces or a corrupt restored state get here
+                self.sim.reset();
+                return Err(format!(
+                    "doStep at t = {t}: the modal state overflowed (forces or a restored \
+                     FMU state far out of range); the structure was put back to rest"
+                ));
+            }
         }
         self.time = t + h;
         Ok(())
@@ -343,7 +361,53 @@ impl Slave {
 
 #[cfg(test)]
 mod tests {
-    use super::Snapshot;
+    use super::{Slave, Snapshot};
+    use identify::axis::Axis;
+    use vmachine::structure::ModalMachine;
+
+    /// Found by `scripts/fuzz.sh` (MTWIN_FUZZ_SEED=0x6f232d33687b3532): a restored
+    /// state with huge (finite) numbers, or absurd forces, overflowed in doStep and
+    /// fmi2GetReal returned NaN.
+    #[test]
+    fn overflow_is_an_error_never_a_nan_output() {
+        let twin = ModalMachine::default_machine().exact_twin([2, 1, 1], &[Axis::X, Axis::Y]);
+        let mut s = Slave::new(&twin).unwrap();
+        s.setup(0.0).unwrap();
+        s.enter_init().unwrap();
+        s.exit_init().unwrap();
+        // value references: Fx Fy, x y z, dx dy
+        let outs = [5u32, 6];
+        let mut y = [0.0; 2];
+        let mut snap = s.snapshot();
+        snap.state[0] = [1e307, -1e307];
+        s.restore(&snap).unwrap();
+        let e = s.do_step(0.0, 1e-3).expect_err("overflow");
+        assert!(e.contains("overflowed"), "{e}");
+        s.get_real(&outs, &mut y).unwrap();
+        assert!(y.iter().all(|v| v.is_finite()), "{y:?}");
+        // restored huge state read right away: an error, not inf
+        s.restore(&snap).unwrap();
+        match s.get_real(&outs, &mut y) {
+            Ok(()) => assert!(y.iter().all(|v| v.is_finite()), "{y:?}"),
+            Err(e) => assert!(e.contains("not finite"), "{e}"),
+        }
+        // the largest finite force
+        s.reset();
+        s.setup(0.0).unwrap();
+        s.enter_init().unwrap();
+        s.exit_init().unwrap();
+        s.set_real(&[0, 1], &[f64::MAX, -f64::MAX]).unwrap();
+        let mut t = 0.0;
+        for _ in 0..10 {
+            if s.do_step(t, 1e-3).is_ok() {
+                t += 1e-3;
+            }
+            match s.get_real(&outs, &mut y) {
+                Ok(()) => assert!(y.iter().all(|v| v.is_finite()), "{y:?}"),
+                Err(e) => assert!(e.contains("not finite"), "{e}"),
+            }
+        }
+    }
 
     /// Found by the random C-API test (fmu/tests/ffi.rs): a serialized state with a NaN
     /// written over one of its numbers deserialized fine, and after fmi2SetFMUstate the

@@ -163,6 +163,8 @@ fn c_api_survives_misuse_and_random_call_sequences() {
         let mut t = 0.0;
         // FMU states this test holds (each freed exactly once), with their time when known
         let mut states: Vec<(*mut c_void, Option<f64>)> = Vec::new();
+        // the last calls, shown when an assertion fails
+        let mut recent: std::collections::VecDeque<String> = Default::default();
         for _ in 0..calls {
             let r = rnd();
             let vr = [(r >> 8) as u32 % 10];
@@ -262,9 +264,31 @@ fn c_api_survives_misuse_and_random_call_sequences() {
                 }
                 _ => enter(c),
             };
+            const NAMES: [&str; 13] = [
+                "setup",
+                "enter",
+                "exit",
+                "terminate",
+                "reset",
+                "getReal",
+                "setReal",
+                "doStep",
+                "doStep(random t)",
+                "getFMUstate",
+                "setFMUstate",
+                "freeFMUstate",
+                "deSerialize(corrupted)",
+            ];
+            if recent.len() == 12 {
+                recent.pop_front();
+            }
+            recent.push_back(format!(
+                "{}(vr {}, value {:e}) -> {st}",
+                NAMES[op as usize], vr[0], v[0]
+            ));
             assert!(
                 st == 0 || st == 3,
-                "status {st} (MTWIN_FUZZ_SEED={seed0:#x})"
+                "status {st} (MTWIN_FUZZ_SEED={seed0:#x}); last calls: {recent:#?}"
             );
             if op == 4 && st == 0 {
                 t = 0.0;
@@ -272,7 +296,8 @@ fn c_api_survives_misuse_and_random_call_sequences() {
             if op == 5 && st == 0 {
                 assert!(
                     out[0].is_finite(),
-                    "non-finite output (MTWIN_FUZZ_SEED={seed0:#x})"
+                    "non-finite output {} (MTWIN_FUZZ_SEED={seed0:#x}); last calls: {recent:#?}",
+                    out[0]
                 );
             }
         }
