@@ -339,6 +339,26 @@ impl Twin {
                     "pose {i}: model has an unstable mode or a non-finite number"
                 )));
             }
+            // the stored FRF feeds later refits: it must be a well-formed FRF
+            let f = &p.frf.freqs_hz;
+            if f.iter().any(|v| !v.is_finite() || *v < 0.0) || f.windows(2).any(|w| w[1] <= w[0]) {
+                return Err(bad(format!(
+                    "pose {i}: the stored FRF's frequencies are not non-negative and strictly \
+                     increasing; re-identify the twin from its data"
+                )));
+            }
+            for c in &p.frf.channels {
+                let coh_ok = c.coherence.as_ref().is_none_or(|g| {
+                    g.len() == f.len() && g.iter().all(|v| (0.0..=1.0).contains(v))
+                });
+                if c.h.len() != f.len() || !coh_ok {
+                    return Err(bad(format!(
+                        "pose {i}: stored FRF channel {} does not have one value (and a \
+                         coherence in [0, 1]) per frequency line; re-identify the twin",
+                        c.channel
+                    )));
+                }
+            }
         }
         Ok(())
     }

@@ -188,6 +188,11 @@ fn check_twin(r: &identify::Result<Twin>) -> Result<(), String> {
         if !all_finite(&p.pose) || !all_finite(&p.band_hz) {
             return Err("non-finite pose or band".into());
         }
+        // the stored FRF is used by later refits: one value per line, lines increasing
+        // (an empty FRF is allowed: a twin built in memory may have none)
+        if !p.frf.freqs_hz.is_empty() {
+            check_frf_value(&p.frf).map_err(|e| format!("stored FRF: {e}"))?;
+        }
     }
     // using the twin must not panic either
     if let Ok(mut ev) = TwinEvaluator::new(twin) {
@@ -661,4 +666,24 @@ fn regression_uff_accelerance_near_zero_hz() {
     let text = format_uff58(&[f]).unwrap();
     let r = parse_uff58(text.as_bytes(), path());
     assert!(check_uff(&r).is_ok(), "{:?}", check_uff(&r));
+}
+
+/// A twin whose stored FRF lost a frequency line (a line of the pretty JSON deleted)
+/// loaded: the FRF of a later refit would have had values on the wrong lines.
+#[test]
+fn regression_twin_with_inconsistent_stored_frf() {
+    let twin = Twin::from_json(twin_json(), path()).unwrap();
+    let mut v: serde_json::Value = serde_json::to_value(&twin).unwrap();
+    // swap the two frequencies of pose 0; then drop one value of channel 0
+    v["poses"][0]["frf"]["freqs_hz"] = serde_json::json!([20.0, 10.0]);
+    let e = Twin::from_json(&v.to_string(), path()).expect_err("unsorted lines");
+    assert!(e.to_string().contains("strictly"), "{e}");
+    let mut v: serde_json::Value = serde_json::to_value(&twin).unwrap();
+    v["poses"][1]["frf"]["channels"][0]["h"]
+        .as_array_mut()
+        .unwrap()
+        .pop();
+    let e = Twin::from_json(&v.to_string(), path()).expect_err("a value missing");
+    assert!(e.to_string().contains("one value"), "{e}");
+    assert!(e.to_string().contains("inpüt.dat"), "{e}");
 }
