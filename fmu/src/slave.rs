@@ -107,9 +107,18 @@ impl Snapshot {
             *v = f(17 + 8 * k);
         }
         let base = 17 + 48;
-        let state = (0..n)
+        let state: Vec<[f64; 2]> = (0..n)
             .map(|k| [f(base + 16 * k), f(base + 16 * k + 8)])
             .collect();
+        // a state that would make the outputs NaN or infinite is corrupt
+        let finite = time.is_finite()
+            && inputs.iter().all(|v| v.is_finite())
+            && state.iter().flatten().all(|v| v.is_finite());
+        if !finite {
+            return Err(
+                "serialized FMU state holds a NaN or infinite number: it is corrupt".into(),
+            );
+        }
         Ok(Snapshot {
             time,
             inputs,
@@ -274,7 +283,17 @@ impl Slave {
         for (vr, o) in vrs.iter().zip(out.iter_mut()) {
             let var = self.var(*vr)?;
             *o = match var {
-                Var::Disp(a) => y.get_or_insert_with(|| self.outputs())[a.index()],
+                Var::Disp(a) => {
+                    let v = y.get_or_insert_with(|| self.outputs())[a.index()];
+                    if !v.is_finite() {
+                        return Err(format!(
+                            "{} is not finite: the forces or the restored FMU state are far \
+                             out of range",
+                            var.name()
+                        ));
+                    }
+                    v
+                }
                 other => self.inputs[Self::slot(other).unwrap_or(0)],
             };
         }
@@ -303,6 +322,14 @@ impl Slave {
             let u = self.force();
             let model = self.ev.model_at(pose);
             self.sim.step(model, &u, &u, h);
+            if !self.sim.state().iter().flatten().all(|v| v.is_finite()) {
+                // only absurd forces or a corrupt restored state get here
+                self.sim.reset();
+                return Err(format!(
+                    "doStep at t = {t}: the modal state overflowed (forces or a restored \
+                     FMU state far out of range); the structure was put back to rest"
+                ));
+            }
         }
         self.time = t + h;
         Ok(())
@@ -329,5 +356,81 @@ impl Slave {
             self.phase = Phase::StepComplete;
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{Slave, Snapshot};
+    use identify::axis::Axis;
+    use vmachine::structure::ModalMachine;
+
+    /// Found by `scripts/fuzz.sh` (MTWIN_FUZZ_SEED=0x6f232d33687b3532): a restored
+    /// state with huge (finite) numbers, or absurd forces, overflowed in doStep and
+    /// fmi2GetReal returned NaN.
+    #[test]
+    fn overflow_is_an_error_never_a_nan_output() {
+        let twin = ModalMachine::default_machine().exact_twin([2, 1, 1], &[Axis::X, Axis::Y]);
+        let mut s = Slave::new(&twin).unwrap();
+        s.setup(0.0).unwrap();
+        s.enter_init().unwrap();
+        s.exit_init().unwrap();
+        // value references: Fx Fy, x y z, dx dy
+        let outs = [5u32, 6];
+        let mut y = [0.0; 2];
+        let mut snap = s.snapshot();
+        snap.state[0] = [1e307, -1e307];
+        s.restore(&snap).unwrap();
+        let e = s.do_step(0.0, 1e-3).expect_err("overflow");
+        assert!(e.contains("overflowed"), "{e}");
+        s.get_real(&outs, &mut y).unwrap();
+        assert!(y.iter().all(|v| v.is_finite()), "{y:?}");
+        // restored huge state read right away: an error, not inf
+        s.restore(&snap).unwrap();
+        match s.get_real(&outs, &mut y) {
+            Ok(()) => assert!(y.iter().all(|v| v.is_finite()), "{y:?}"),
+            Err(e) => assert!(e.contains("not finite"), "{e}"),
+        }
+        // the largest finite force
+        s.reset();
+        s.setup(0.0).unwrap();
+        s.enter_init().unwrap();
+        s.exit_init().unwrap();
+        s.set_real(&[0, 1], &[f64::MAX, -f64::MAX]).unwrap();
+        let mut t = 0.0;
+        for _ in 0..10 {
+            if s.do_step(t, 1e-3).is_ok() {
+                t += 1e-3;
+            }
+            match s.get_real(&outs, &mut y) {
+                Ok(()) => assert!(y.iter().all(|v| v.is_finite()), "{y:?}"),
+                Err(e) => assert!(e.contains("not finite"), "{e}"),
+            }
+        }
+    }
+
+    /// Found by the random C-API test (fmu/tests/ffi.rs): a serialized state with a NaN
+    /// written over one of its numbers deserialized fine, and after fmi2SetFMUstate the
+    /// outputs were NaN.
+    #[test]
+    fn corrupt_state_with_non_finite_numbers_is_refused() {
+        let s = Snapshot {
+            time: 0.5,
+            inputs: [1.0, 2.0, 0.0, 0.1, 0.2, 0.3],
+            state: vec![[1e-6, -2e-3]; 3],
+            phase_stepping: true,
+        };
+        let good = s.to_bytes();
+        assert!(Snapshot::from_bytes(&good).is_ok());
+        // the time, every input and every state number
+        let offsets = std::iter::once(8).chain((0..(good.len() - 17) / 8).map(|k| 17 + 8 * k));
+        for at in offsets {
+            for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+                let mut b = good.clone();
+                b[at..at + 8].copy_from_slice(&bad.to_le_bytes());
+                let e = Snapshot::from_bytes(&b).expect_err("non-finite number");
+                assert!(e.contains("corrupt"), "{e}");
+            }
+        }
     }
 }

@@ -1,6 +1,9 @@
 //! The built shared library through its C API, loaded with libloading (as an importer
 //! would): life cycle, NULL pointers, unknown references, and a seeded random sequence of
 //! calls in any order — every call returns a status, none crashes the host.
+//!
+//! `MTWIN_FUZZ_CALLS` (default 20000) sets the number of random calls and
+//! `MTWIN_FUZZ_SEED` (default a fixed seed) the seed; `scripts/fuzz.sh` raises both.
 
 use identify::axis::Axis;
 use identify::twin::Twin;
@@ -32,6 +35,25 @@ fn twin_dir() -> (tempfile::TempDir, Twin) {
     (d, twin)
 }
 
+/// `MTWIN_FUZZ_CALLS` and `MTWIN_FUZZ_SEED` (decimal or `0x` hex), with defaults.
+fn fuzz_settings() -> (u64, u64) {
+    let num = |name: &str| {
+        std::env::var(name).ok().and_then(|s| {
+            let s = s.trim();
+            match s.strip_prefix("0x") {
+                Some(h) => u64::from_str_radix(h, 16).ok(),
+                None => s.parse().ok(),
+            }
+        })
+    };
+    let calls = num("MTWIN_FUZZ_CALLS").unwrap_or(20_000);
+    // xorshift needs a non-zero state
+    let seed = num("MTWIN_FUZZ_SEED")
+        .filter(|&s| s != 0)
+        .unwrap_or(0x2545_F491_4F6C_DD1D);
+    (calls, seed)
+}
+
 #[test]
 fn c_api_survives_misuse_and_random_call_sequences() {
     let (d, twin) = twin_dir();
@@ -56,6 +78,11 @@ fn c_api_survives_misuse_and_random_call_sequences() {
     type GetR = unsafe extern "C" fn(Comp, *const u32, usize, *mut f64) -> c_int;
     type SetR = unsafe extern "C" fn(Comp, *const u32, usize, *const f64) -> c_int;
     type Step = unsafe extern "C" fn(Comp, f64, f64, c_int) -> c_int;
+    type GetS = unsafe extern "C" fn(Comp, *mut *mut c_void) -> c_int;
+    type SetS = unsafe extern "C" fn(Comp, *mut c_void) -> c_int;
+    type SizeS = unsafe extern "C" fn(Comp, *mut c_void, *mut usize) -> c_int;
+    type SerS = unsafe extern "C" fn(Comp, *mut c_void, *mut u8, usize) -> c_int;
+    type DeS = unsafe extern "C" fn(Comp, *const u8, usize, *mut *mut c_void) -> c_int;
     // SAFETY: the symbols have exactly these FMI 2.0 signatures.
     unsafe {
         let inst: Symbol<Inst> = lib.get(b"fmi2Instantiate").expect("sym");
@@ -68,6 +95,12 @@ fn c_api_survives_misuse_and_random_call_sequences() {
         let get: Symbol<GetR> = lib.get(b"fmi2GetReal").expect("sym");
         let set: Symbol<SetR> = lib.get(b"fmi2SetReal").expect("sym");
         let step: Symbol<Step> = lib.get(b"fmi2DoStep").expect("sym");
+        let get_s: Symbol<GetS> = lib.get(b"fmi2GetFMUstate").expect("sym");
+        let set_s: Symbol<SetS> = lib.get(b"fmi2SetFMUstate").expect("sym");
+        let free_s: Symbol<GetS> = lib.get(b"fmi2FreeFMUstate").expect("sym");
+        let size_s: Symbol<SizeS> = lib.get(b"fmi2SerializedFMUstateSize").expect("sym");
+        let ser_s: Symbol<SerS> = lib.get(b"fmi2SerializeFMUstate").expect("sym");
+        let de_s: Symbol<DeS> = lib.get(b"fmi2DeSerializeFMUstate").expect("sym");
         let name = CString::new("t").unwrap();
         let guid = CString::new(twin.guid()).unwrap();
         let bad = CString::new("{bad}").unwrap();
@@ -118,7 +151,9 @@ fn c_api_survives_misuse_and_random_call_sequences() {
         assert_eq!(get(c, std::ptr::null(), 2, std::ptr::null_mut()), 3);
         assert_eq!(get(c, std::ptr::null(), 0, std::ptr::null_mut()), 0);
         // random sequences: any order, any values
-        let mut seed = 0x2545_F491_4F6C_DD1Du64;
+        let (calls, mut seed) = fuzz_settings();
+        let seed0 = seed;
+        eprintln!("fuzz: {calls} random calls, seed {seed0:#x}");
         let mut rnd = || {
             seed ^= seed << 13;
             seed ^= seed >> 7;
@@ -126,13 +161,19 @@ fn c_api_survives_misuse_and_random_call_sequences() {
             seed
         };
         let mut t = 0.0;
-        for _ in 0..20_000 {
+        // FMU states this test holds (each freed exactly once), with their time when known
+        let mut states: Vec<(*mut c_void, Option<f64>)> = Vec::new();
+        // the last calls, shown when an assertion fails
+        let mut recent: std::collections::VecDeque<String> = Default::default();
+        for _ in 0..calls {
             let r = rnd();
             let vr = [(r >> 8) as u32 % 10];
             let v = [f64::from_bits(rnd()) * if r & 1 == 0 { 1.0 } else { 0.0 }
                 + ((r >> 20) % 1000) as f64];
             let mut out = [0.0f64];
-            let st = match r % 9 {
+            let op = r % 13;
+            let pick = ((r >> 40) as usize) % states.len().max(1);
+            let st = match op {
                 0 => setup(c, 0, 0.0, 0.0, 0, 0.0),
                 1 => enter(c),
                 2 => exit(c),
@@ -148,15 +189,120 @@ fn c_api_survives_misuse_and_random_call_sequences() {
                     }
                     s
                 }
-                _ => step(c, f64::from_bits(rnd()), 1e-3, 1),
+                8 => step(c, f64::from_bits(rnd()), 1e-3, 1),
+                // FMU states: get (into a new or an existing slot), set, free
+                9 => {
+                    if states.is_empty() || r & 2 == 0 {
+                        let mut slot = std::ptr::null_mut();
+                        let st = get_s(c, &mut slot);
+                        if !slot.is_null() {
+                            states.push((slot, Some(t)));
+                        }
+                        st
+                    } else {
+                        let st = get_s(c, &mut states[pick].0);
+                        if st == 0 {
+                            states[pick].1 = Some(t);
+                        }
+                        st
+                    }
+                }
+                10 if !states.is_empty() => {
+                    let st = set_s(c, states[pick].0);
+                    if st == 0 {
+                        t = states[pick].1.unwrap_or(f64::NAN);
+                    }
+                    st
+                }
+                11 if !states.is_empty() => {
+                    let (mut p, _) = states.swap_remove(pick);
+                    let st = free_s(c, &mut p);
+                    assert!(p.is_null(), "freed state slot not cleared");
+                    st
+                }
+                // serialize a state, corrupt the bytes, deserialize into a new state
+                12 if !states.is_empty() => {
+                    let mut n = 0usize;
+                    let st = size_s(c, states[pick].0, &mut n);
+                    assert_eq!(st, 0, "size of a valid state");
+                    let mut buf = vec![0u8; n];
+                    let st = ser_s(c, states[pick].0, buf.as_mut_ptr(), n);
+                    assert_eq!(st, 0, "serialize a valid state");
+                    let small = ser_s(c, states[pick].0, buf.as_mut_ptr(), n.saturating_sub(1));
+                    assert_eq!(small, 3, "a short buffer is an error");
+                    match (r >> 20) % 5 {
+                        0 => {}
+                        1 => {
+                            let i = (rnd() as usize) % n.max(1);
+                            buf[i] ^= 1 << (rnd() % 8);
+                        }
+                        2 => buf.truncate((rnd() as usize) % (n + 1)),
+                        3 => buf.push(rnd() as u8),
+                        _ => {
+                            // a NaN, an infinity or garbage where a number is: the time (byte
+                            // 8), the 6 inputs (17..65), the state (65..)
+                            let k = (rnd() as usize) % (1 + (n.saturating_sub(17)) / 8).max(1);
+                            let i = if k == 0 { 8 } else { 17 + 8 * (k - 1) };
+                            let bad = [
+                                f64::NAN,
+                                f64::INFINITY,
+                                -f64::INFINITY,
+                                f64::from_bits(rnd()),
+                            ];
+                            let v = bad[(rnd() % 4) as usize].to_le_bytes();
+                            if i + 8 <= buf.len() {
+                                buf[i..i + 8].copy_from_slice(&v);
+                            }
+                        }
+                    }
+                    let mut slot = std::ptr::null_mut();
+                    let st = de_s(c, buf.as_ptr(), buf.len(), &mut slot);
+                    if !slot.is_null() {
+                        states.push((slot, None));
+                    }
+                    st
+                }
+                _ => enter(c),
             };
-            assert!(st == 0 || st == 3, "status {st}");
-            if r % 9 == 4 && st == 0 {
+            const NAMES: [&str; 13] = [
+                "setup",
+                "enter",
+                "exit",
+                "terminate",
+                "reset",
+                "getReal",
+                "setReal",
+                "doStep",
+                "doStep(random t)",
+                "getFMUstate",
+                "setFMUstate",
+                "freeFMUstate",
+                "deSerialize(corrupted)",
+            ];
+            if recent.len() == 12 {
+                recent.pop_front();
+            }
+            recent.push_back(format!(
+                "{}(vr {}, value {:e}) -> {st}",
+                NAMES[op as usize], vr[0], v[0]
+            ));
+            assert!(
+                st == 0 || st == 3,
+                "status {st} (MTWIN_FUZZ_SEED={seed0:#x}); last calls: {recent:#?}"
+            );
+            if op == 4 && st == 0 {
                 t = 0.0;
             }
-            if r % 9 == 5 && st == 0 {
-                assert!(out[0].is_finite());
+            if op == 5 && st == 0 {
+                assert!(
+                    out[0].is_finite(),
+                    "non-finite output {} (MTWIN_FUZZ_SEED={seed0:#x}); last calls: {recent:#?}",
+                    out[0]
+                );
             }
+        }
+        for (mut p, _) in states {
+            assert_eq!(free_s(c, &mut p), 0);
         }
         free(c);
     }

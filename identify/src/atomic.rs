@@ -1,7 +1,10 @@
 //! Atomic output files: write to a temporary file beside the target, then rename.
 //!
 //! A reader never sees a half-written file, and an interrupted run leaves the previous
-//! file intact.
+//! file intact. The temporary file is `.NAME.tmp-PID` beside the target (`PID` = the
+//! writing process); it is removed on any error, but a process killed between creating
+//! and renaming it (SIGKILL, power loss) leaves it behind. Such a file is never read by
+//! mtwin and may be deleted.
 
 use crate::error::{Error, Result};
 use std::io::Write;

@@ -62,27 +62,65 @@ impl Frf {
     }
 }
 
+/// Weighted RMS `sqrt(Σ w²|h|² / Σ w²)` of one channel, formed relative to the largest
+/// weighted value so that receptances near 1e±300 neither overflow nor underflow when
+/// squared. `None` when the channel is zero or has no weight.
+pub(crate) fn weighted_rms(h: &[Complex64], w: &[f64]) -> Option<f64> {
+    let top = h
+        .iter()
+        .zip(w)
+        .filter(|(_, w)| **w > 0.0)
+        .fold(0.0f64, |m, (h, _)| m.max(h.re.abs()).max(h.im.abs()));
+    if !(top > 0.0 && top.is_finite()) {
+        return None;
+    }
+    let (num, den) = h
+        .iter()
+        .zip(w)
+        .filter(|(_, w)| **w > 0.0)
+        .fold((0.0, 0.0), |(a, b), (h, w)| {
+            (a + w * w * (h / top).norm_sqr(), b + w * w)
+        });
+    (den > 0.0 && num > 0.0).then(|| top * (num / den).sqrt())
+}
+
 /// The paper's fit metric (its equation 5, also SPEC section 4), in percent:
 /// `(1 - ||F - H|| / ||F - mean(F)||) * 100` over complex (or real) values.
 ///
 /// `truth` is the reference (measured or analytic), `model` the estimate. Returns
-/// `-inf` when the reference is constant.
+/// `-inf` when the reference is constant (to rounding). The sums are formed relative to
+/// the largest value, so receptances near 1e±300 neither overflow nor underflow.
 pub fn fit_percent(truth: &[Complex64], model: &[Complex64]) -> f64 {
     assert_eq!(truth.len(), model.len(), "fit_percent: length mismatch");
     let n = truth.len().max(1) as f64;
-    let mean = truth.iter().sum::<Complex64>() / n;
+    let top = truth
+        .iter()
+        .chain(model)
+        .fold(0.0f64, |m, v| m.max(v.re.abs()).max(v.im.abs()));
+    if top == 0.0 {
+        return f64::NEG_INFINITY;
+    }
+    let scale = if top.is_finite() { 1.0 / top } else { 1.0 };
+    // two-pass mean: exact to rounding, so a constant reference is recognised
+    let mean0 = truth.iter().map(|a| a * scale).sum::<Complex64>() / n;
+    let mean = mean0 + truth.iter().map(|a| a * scale - mean0).sum::<Complex64>() / n;
     let num: f64 = truth
         .iter()
         .zip(model)
-        .map(|(a, b)| (a - b).norm_sqr())
+        .map(|(a, b)| ((a - b) * scale).norm_sqr())
         .sum::<f64>()
         .sqrt();
     let den: f64 = truth
         .iter()
-        .map(|a| (a - mean).norm_sqr())
+        .map(|a| (a * scale - mean).norm_sqr())
         .sum::<f64>()
         .sqrt();
-    if den == 0.0 {
+    let size: f64 = truth
+        .iter()
+        .map(|a| (a * scale).norm_sqr())
+        .sum::<f64>()
+        .sqrt();
+    if den == 0.0 || den <= 1e-12 * size {
         return f64::NEG_INFINITY;
     }
     (1.0 - num / den) * 100.0

@@ -358,6 +358,16 @@ pub fn parse_timeseries_with_warnings(
     // row where a sample is missing or doubled, then against the mean step (the SPEC
     // rule), which also catches a slow drift of the rate.
     let mean = (t[n - 1] - t[0]) / (n - 1) as f64;
+    // Finite times can still span more than an f64 holds (or step by less than the
+    // smallest normal number): no usable sample rate.
+    if !(mean.is_finite() && mean > 0.0 && (1.0 / mean).is_finite()) {
+        return Err(Error::bad_file(
+            file,
+            row_lines[n - 1],
+            Some(tname),
+            format!("the times from {:e} s to {:e} s give no usable sample period (the span or the step is beyond the range of a double); give times in seconds", t[0], t[n - 1]),
+        ));
+    }
     let mut steps: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
     let mid = steps.len() / 2;
     let typical = *steps.select_nth_unstable_by(mid, f64::total_cmp).1;

@@ -185,14 +185,8 @@ pub fn diagram(
     let mut m_red = DMatrix::<f64>::zeros(n + 1, n + 1);
     let mut blocks = Vec::with_capacity(frf.channels.len());
     for (ch, w) in frf.channels.iter().zip(weights) {
-        let scale = {
-            let (num, den) = ch.h.iter().zip(w).fold((0.0, 0.0), |(a, b), (h, w)| {
-                (a + w * w * h.norm_sqr(), b + w * w)
-            });
-            if den <= 0.0 || num <= 0.0 {
-                continue;
-            }
-            (num / den).sqrt()
+        let Some(scale) = crate::frf::weighted_rms(&ch.h, w) else {
+            continue;
         };
         let mut r = vec![Complex64::default(); n + 1];
         let mut sp = vec![Complex64::default(); n + 1];

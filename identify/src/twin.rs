@@ -46,8 +46,16 @@ impl Default for Units {
 pub struct ChannelFit {
     /// The channel.
     pub channel: Channel,
-    /// Fit in percent (paper's equation 5) within the fitted band.
+    /// Fit in percent (paper's equation 5) within the fitted band; `-inf` when the
+    /// measured channel is constant (the metric is undefined). JSON has no infinity:
+    /// `-inf` is written as `null` and `null` reads back as `-inf`.
+    #[serde(deserialize_with = "fit_or_null")]
     pub fit_pct: f64,
+}
+
+/// A fit percentage, `null` (how serde_json writes a non-finite number) read as `-inf`.
+fn fit_or_null<'de, D: serde::Deserializer<'de>>(d: D) -> std::result::Result<f64, D::Error> {
+    Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NEG_INFINITY))
 }
 
 /// How the model order of a pose was chosen.
@@ -330,6 +338,26 @@ impl Twin {
                 return Err(bad(format!(
                     "pose {i}: model has an unstable mode or a non-finite number"
                 )));
+            }
+            // the stored FRF feeds later refits: it must be a well-formed FRF
+            let f = &p.frf.freqs_hz;
+            if f.iter().any(|v| !v.is_finite() || *v < 0.0) || f.windows(2).any(|w| w[1] <= w[0]) {
+                return Err(bad(format!(
+                    "pose {i}: the stored FRF's frequencies are not non-negative and strictly \
+                     increasing; re-identify the twin from its data"
+                )));
+            }
+            for c in &p.frf.channels {
+                let coh_ok = c.coherence.as_ref().is_none_or(|g| {
+                    g.len() == f.len() && g.iter().all(|v| (0.0..=1.0).contains(v))
+                });
+                if c.h.len() != f.len() || !coh_ok {
+                    return Err(bad(format!(
+                        "pose {i}: stored FRF channel {} does not have one value (and a \
+                         coherence in [0, 1]) per frequency line; re-identify the twin",
+                        c.channel
+                    )));
+                }
             }
         }
         Ok(())

@@ -734,6 +734,16 @@ fn parse_one58(
             ),
         ));
     }
+    if even && !(xmin + (num_pts - 1) as f64 * dx).is_finite() {
+        return Err(ctx.err(
+            n7,
+            Some("abscissa increment"),
+            format!(
+                "{r7}: {num_pts} points from {xmin:e} in steps of {dx:e} go beyond the range \
+                 of a double; check the abscissa minimum and increment (columns 31-56)"
+            ),
+        ));
+    }
     f.z_value = r[2];
     f.abscissa_axis = parse_axis(ctx, header[7].1, header[7].0, "record 8 (abscissa)")?;
     f.ordinate_axis = parse_axis(ctx, header[8].1, header[8].0, "record 9 (ordinate)")?;
@@ -1299,7 +1309,7 @@ pub struct UffSelect {
 /// (type 6) with the same nodes and directions on the same grid become the channels'
 /// coherence. Fails ([`Error::BadInput`]) when nothing matches, two FRFs give the same
 /// channel (select one node pair), the grids differ, a direction is a rotation or scalar,
-/// or the ordinate is not a motion.
+/// the ordinate is not a motion, or a coherence lies outside [0, 1].
 pub fn frf_from_uff(funcs: &[UffFunction], sel: &UffSelect) -> Result<Frf> {
     let matches = |f: &&UffFunction| {
         sel.response_node.is_none_or(|n| f.response_node == n)
@@ -1425,24 +1435,35 @@ pub fn frf_from_uff(funcs: &[UffFunction], sel: &UffSelect) -> Result<Frf> {
             .map(|&k| {
                 let w = 2.0 * std::f64::consts::PI * grid[k];
                 let z = f.data[k] * sign;
-                match kind {
+                let h = match kind {
                     DATA_VELOCITY => z / Complex64::new(0.0, w),
                     DATA_ACCELERATION => z / (-w * w),
                     _ => z,
+                };
+                if h.re.is_finite() && h.im.is_finite() {
+                    Ok(h)
+                } else {
+                    Err(Error::BadInput(format!(
+                        "{}: the receptance at {} Hz is beyond the range of a double (the \
+                         line is too close to 0 Hz to divide by the frequency); drop the \
+                         lowest lines",
+                        f.describe(),
+                        grid[k]
+                    )))
                 }
             })
-            .collect();
-        let coherence = funcs
-            .iter()
-            .find(|g| {
-                g.func_type == FUNC_COHERENCE
-                    && g.response_node == f.response_node
-                    && g.reference_node == f.reference_node
-                    && g.response_dir.abs() == f.response_dir.abs()
-                    && g.reference_dir.abs() == f.reference_dir.abs()
-                    && same_grid(&g.abscissa)
-            })
-            .map(|g| keep.iter().map(|&k| g.data[k].re).collect());
+            .collect::<Result<Vec<_>>>()?;
+        let coherence = match funcs.iter().find(|g| {
+            g.func_type == FUNC_COHERENCE
+                && g.response_node == f.response_node
+                && g.reference_node == f.reference_node
+                && g.response_dir.abs() == f.response_dir.abs()
+                && g.reference_dir.abs() == f.reference_dir.abs()
+                && same_grid(&g.abscissa)
+        }) {
+            Some(g) => Some(coherence_values(g, &keep)?),
+            None => None,
+        };
         out.channels.push(FrfChannel {
             channel: c,
             h,
@@ -1450,6 +1471,27 @@ pub fn frf_from_uff(funcs: &[UffFunction], sel: &UffSelect) -> Result<Frf> {
         });
     }
     Ok(out)
+}
+
+/// The coherence of function `g` at the lines `keep`, checked to lie in [0, 1] (values
+/// within 1e-6 outside, rounding of the writer, are clamped).
+fn coherence_values(g: &UffFunction, keep: &[usize]) -> Result<Vec<f64>> {
+    const SLACK: f64 = 1e-6;
+    keep.iter()
+        .map(|&k| {
+            let v = g.data[k].re;
+            if (-SLACK..=1.0 + SLACK).contains(&v) {
+                Ok(v.clamp(0.0, 1.0))
+            } else {
+                Err(Error::BadInput(format!(
+                    "{}: coherence {v} at {} Hz is outside [0, 1]; coherence is a ratio \
+                     between 0 and 1 (is this function really a coherence?)",
+                    g.describe(),
+                    g.abscissa[k]
+                )))
+            }
+        })
+        .collect()
 }
 
 /// UFF functions of an [`Frf`]: one FRF (function type 4, complex, receptance =

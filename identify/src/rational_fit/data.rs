@@ -120,14 +120,7 @@ impl Prepared {
         let mut h = Vec::new();
         let mut h_scale = Vec::new();
         for (c, wc) in band.channels.iter().zip(&w) {
-            let (num, den) = c.h.iter().zip(wc).fold((0.0, 0.0), |(a, b), (h, w)| {
-                (a + w * w * h.norm_sqr(), b + w * w)
-            });
-            let sc = if den > 0.0 && num > 0.0 {
-                (num / den).sqrt()
-            } else {
-                1.0
-            };
+            let sc = crate::frf::weighted_rms(&c.h, wc).unwrap_or(1.0);
             h_scale.push(sc);
             h.push(c.h.iter().map(|v| v / sc).collect());
         }
