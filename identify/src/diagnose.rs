@@ -553,6 +553,169 @@ fn cand_mode_change(twin: &Twin, model: &ModalModel, pts: &[Points]) -> Option<C
     })
 }
 
+/// Data at several poses whose modes move with the pose more than the twin's
+/// interpolation says: per pose, each mode's frequency refitted alone (as in
+/// [`cand_mode_change`]); the mode whose shift varies most across the poses and the axis
+/// along which it varies (least-squares slope of the relative shift over each axis's
+/// spread). The extension adds every data pose to the twin with its updated model.
+fn cand_pose_dependence(
+    twin: &Twin,
+    parts: &[TimeSeries],
+    band: (f64, f64),
+    min_coh: f64,
+) -> Option<Cand> {
+    let groups = crate::campaign::group_by_pose(parts, 1e-3);
+    if groups.len() < 2 {
+        return None;
+    }
+    let mut evl = TwinEvaluator::new(twin).ok()?;
+    // per pose: (pose, twin model there, points, frf evidence, sources)
+    let mut per = Vec::new();
+    for g in &groups {
+        let recs: Vec<TimeSeries> = g.records.iter().map(|&i| parts[i].clone()).collect();
+        let ev = evidence(&recs).ok()?;
+        let pts = points(&ev, band, min_coh);
+        if pts.is_empty() {
+            return None;
+        }
+        let m0 = evl.model_at(g.pose).clone();
+        per.push((g.pose, m0, pts, ev, recs));
+    }
+    let n_modes = per[0].1.modes.len();
+    // relative frequency shift of mode k at each pose, with the updated models
+    let mut best: Option<(f64, usize, Vec<f64>, Vec<ModalModel>)> = None;
+    for k in 0..n_modes {
+        let mut shifts = Vec::new();
+        let mut models = Vec::new();
+        for (_, m0, pts, _, _) in &per {
+            let r = update_modes(
+                m0,
+                &[k],
+                pts,
+                Prior {
+                    ln_wn: 0.3,
+                    ..Prior::default()
+                },
+                40,
+            )
+            .ok()?;
+            // a shift only counts where the refit explains the data better
+            if chi(&r.model, pts, 0.0) > 0.9 * chi(m0, pts, 0.0) {
+                shifts.push(0.0);
+                models.push(m0.clone());
+                continue;
+            }
+            shifts.push(r.model.modes[k].wn / m0.modes[k].wn - 1.0);
+            models.push(r.model);
+        }
+        let mean = shifts.iter().sum::<f64>() / shifts.len() as f64;
+        let spread = shifts.iter().map(|s| (s - mean).abs()).fold(0.0, f64::max);
+        if best.as_ref().is_none_or(|b| spread > b.0) {
+            best = Some((spread, k, shifts, models));
+        }
+    }
+    let (spread, k, shifts, _) = best?;
+    // the extension's model at each pose: every mode refitted there (not only the one
+    // that moves most: the others move with the pose too)
+    let all: Vec<usize> = (0..n_modes).collect();
+    let models: Vec<ModalModel> = per
+        .iter()
+        .map(|(_, m0, pts, _, _)| {
+            update_modes(m0, &all, pts, Prior::default(), 60)
+                .map(|r| r.model)
+                .unwrap_or_else(|_| m0.clone())
+        })
+        .collect();
+    // at least 0.5 % of frequency variation across the poses
+    if spread < 0.005 {
+        return None;
+    }
+    // slope of the shift along each axis (simple regressions), pick the largest effect
+    let n = per.len() as f64;
+    let mut axis_best: Option<(f64, usize, f64)> = None;
+    for a in 0..3 {
+        let xm = per.iter().map(|p| p.0[a]).sum::<f64>() / n;
+        let sm = shifts.iter().sum::<f64>() / n;
+        let sxx: f64 = per.iter().map(|p| (p.0[a] - xm).powi(2)).sum();
+        if sxx < 1e-10 {
+            continue;
+        }
+        let sxy: f64 = per
+            .iter()
+            .zip(&shifts)
+            .map(|(p, s)| (p.0[a] - xm) * (s - sm))
+            .sum();
+        let slope = sxy / sxx;
+        let effect = slope.abs() * (sxx / n).sqrt();
+        if axis_best.as_ref().is_none_or(|b| effect > b.0) {
+            axis_best = Some((effect, a, slope));
+        }
+    }
+    let (_, a, slope) = axis_best?;
+    // the extension: every data pose becomes a measured pose of the twin
+    let mut ext = twin.clone();
+    let fitted_band = [band.0, band.1];
+    for ((pose, _, _, ev, recs), model) in per.iter().zip(models) {
+        let frf = crate::frf::Frf {
+            freqs_hz: ev.freqs_hz.clone(),
+            channels: ev
+                .channels
+                .iter()
+                .map(|(c, h, g)| crate::frf::FrfChannel {
+                    channel: *c,
+                    h: h.clone(),
+                    coherence: Some(g.clone()),
+                })
+                .collect(),
+        };
+        let fit = crate::campaign::channel_fits(&model, &frf, band);
+        let pm = crate::twin::PoseModel {
+            pose: *pose,
+            model,
+            frf,
+            band_hz: fitted_band,
+            fit,
+            order: crate::twin::OrderInfo {
+                modes: n_modes,
+                automatic: false,
+                stable_freqs_hz: Vec::new(),
+            },
+            sources: recs.iter().map(|r| r.source.clone()).collect(),
+            frf_exp_window_sigma: None,
+        };
+        let d = |q: &[f64; 3]| (0..3).map(|i| (q[i] - pose[i]).powi(2)).sum::<f64>().sqrt();
+        match ext.poses.iter().position(|p| d(&p.pose) <= 1e-3) {
+            Some(i) => ext.poses[i] = pm,
+            None => ext.poses.push(pm),
+        }
+    }
+    if ext.validate(std::path::Path::new("extended twin")).is_err()
+        || TwinEvaluator::new(&ext).is_err()
+    {
+        return None;
+    }
+    let f0 = per[0].1.modes[k].freq_hz();
+    let mut d = Map::new();
+    d.insert("axis_of_variation".into(), json!(["x", "y", "z"][a]));
+    d.insert("freq_shift_pct_per_m".into(), json!(100.0 * slope));
+    d.insert("freq_hz".into(), json!(f0));
+    d.insert("mode".into(), json!(k));
+    d.insert(
+        "shift_pct_per_pose".into(),
+        json!(per
+            .iter()
+            .zip(&shifts)
+            .map(|(p, s)| json!({"pose": p.0, "shift_pct": 100.0 * s}))
+            .collect::<Vec<_>>()),
+    );
+    Some(Cand {
+        cause: Cause::PoseDependence,
+        chi: f64::NAN,
+        twin: ext,
+        details: d,
+    })
+}
+
 fn cand_unmodeled_mode(twin: &Twin, model: &ModalModel, pts: &[Points]) -> Option<Cand> {
     // largest residual peak (in standard errors) over the channels the model has
     let mut peak: Option<(f64, f64, Channel)> = None;
@@ -831,7 +994,15 @@ fn summary_for(cause: Cause, d: &Map<String, Value>, before: f64, after: f64) ->
             "The twin misses the data between {} Hz and none of the known causes explains it; re-measure there. Held-out fit {before:.1} %.",
             d.get("band_hz").map_or("?".into(), |v| v.to_string())
         ),
-        Cause::PoseDependence | Cause::Nonlinearity => gain,
+        Cause::PoseDependence => format!(
+            "The machine's behaviour changes with the axis position more than the twin knows: \
+             the {:.0} Hz mode moves by {:+.1} % per metre along {}. The data's poses were added \
+             to the twin. {gain}",
+            num("freq_hz"),
+            num("freq_shift_pct_per_m"),
+            txt("axis_of_variation")
+        ),
+        Cause::Nonlinearity => gain,
     }
 }
 
@@ -871,7 +1042,22 @@ pub fn diagnose(
     let chi0 = chi(&model, &pts, twin.extensions.delay_s.unwrap_or(0.0));
     let chi_loc = chi_local(&model, &pts, twin.extensions.delay_s.unwrap_or(0.0));
     // a misfit: globally (RMS) or in some band (a resonance is local)
-    let misfit = chi0 > opts.chi_none || chi_loc > opts.chi_local;
+    let mut misfit = chi0 > opts.chi_none || chi_loc > opts.chi_local;
+    // data at several poses: judge each pose against the twin there too (pooling the
+    // poses' FRFs blurs a mode that moves with the pose into a broad, weak misfit)
+    let groups = crate::campaign::group_by_pose(&parts, 1e-3);
+    if groups.len() >= 2 {
+        for g in &groups {
+            let recs: Vec<TimeSeries> = g.records.iter().map(|&i| parts[i].clone()).collect();
+            let Ok(e) = evidence(&recs) else { continue };
+            let p = points(&e, band, opts.min_coherence);
+            let m = evl.model_at(g.pose).clone();
+            let delay = twin.extensions.delay_s.unwrap_or(0.0);
+            if chi(&m, &p, delay) > opts.chi_none || chi_local(&m, &p, delay) > opts.chi_local {
+                misfit = true;
+            }
+        }
+    }
     let fit_before = holdout_fit(twin, &splits)?;
     let holdout = format!(
         "held out: {} (the last {} of each record, from t = {})",
@@ -898,6 +1084,7 @@ pub fn diagnose(
         cands.extend(cand_unmodeled_mode(twin, &model, &pts));
         cands.extend(cand_time_delay(twin, &model, &pts, dt));
         cands.extend(cand_cross_coupling(twin, &model, &pts));
+        cands.extend(cand_pose_dependence(twin, &parts, band, opts.min_coherence));
     }
     cands.extend(cand_disturbance(twin, &parts));
     let mut scores = Vec::new();
@@ -912,7 +1099,10 @@ pub fn diagnose(
         });
         // a candidate must explain the FRF evidence too (χ falls by half) unless it is a
         // disturbance (not in the FRF by definition)
-        let explains = c.cause == Cause::Disturbance || c.chi < 0.5 * chi0 || c.chi < opts.chi_none;
+        // (pose dependence is judged per pose: its χ is not comparable with the pooled one)
+        let explains = matches!(c.cause, Cause::Disturbance | Cause::PoseDependence)
+            || c.chi < 0.5 * chi0
+            || c.chi < opts.chi_none;
         if explains && fit > fit_before + opts.min_gain_pct && best.is_none_or(|b| fit > b.1) {
             best = Some((i, fit));
         }
