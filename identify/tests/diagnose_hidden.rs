@@ -11,6 +11,7 @@ use identify::twin::Twin;
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 use vmachine::daq::{impact_record, Daq};
+use vmachine::hidden::{delayed, disturbed};
 use vmachine::structure::{ModalMachine, VMode};
 
 const AXES: [Axis; 2] = [Axis::X, Axis::Y];
@@ -82,30 +83,6 @@ fn hidden_effects_are_found_with_their_numbers() {
         assert!((got - f_new).abs() < 0.01 * f_new, "{got} vs {f_new}");
         assert!(d.fit_after_pct > d.fit_before_pct);
     }
-}
-
-/// Responses delayed by `k` samples (the first `k` samples repeat the first value).
-fn delayed(mut ts: TimeSeries, k: usize) -> TimeSeries {
-    for r in ts.response.iter_mut().flatten() {
-        let first = r[0];
-        let n = r.len();
-        r.rotate_right(k);
-        r[..k.min(n)].iter_mut().for_each(|v| *v = first);
-    }
-    ts
-}
-
-/// A sinusoid of `rel` × the response RMS at `f_hz` added to the response along `axis`
-/// (vibration from outside the measured force path).
-fn disturbed(mut ts: TimeSeries, axis: Axis, f_hz: f64, rel: f64) -> TimeSeries {
-    let dt = ts.dt;
-    if let Some(r) = ts.response[axis.index()].as_mut() {
-        let rms = (r.iter().map(|v| v * v).sum::<f64>() / r.len() as f64).sqrt();
-        for (i, v) in r.iter_mut().enumerate() {
-            *v += rel * rms * (2.0 * std::f64::consts::PI * f_hz * i as f64 * dt).sin();
-        }
-    }
-    ts
 }
 
 #[test]
