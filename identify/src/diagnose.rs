@@ -897,9 +897,12 @@ fn cand_disturbance(twin: &Twin, parts: &[TimeSeries]) -> Option<Cand> {
         let mut sorted = mag.clone();
         sorted.sort_by(f64::total_cmp);
         let median = sorted[sorted.len() / 2].max(1e-300);
-        // local maxima 30× above the median, strongest first, at most 3
-        let mut peaks: Vec<(f64, usize)> = (2..mag.len() - 2)
+        // local maxima 30× above the median and as narrow as a pure tone (Hann main lobe
+        // ±2 bins: 10× down at ±5 bins; a model error around a resonance is as wide as the
+        // resonance), strongest first, at most 3
+        let mut peaks: Vec<(f64, usize)> = (5..mag.len().saturating_sub(5))
             .filter(|&i| mag[i] > 30.0 * median && mag[i] >= mag[i - 1] && mag[i] >= mag[i + 1])
+            .filter(|&i| mag[i] >= 10.0 * mag[i - 5].max(mag[i + 5]))
             .map(|i| (mag[i], i))
             .collect();
         peaks.sort_by(|x, y| y.0.total_cmp(&x.0));
