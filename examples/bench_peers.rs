@@ -16,18 +16,16 @@
 //! * `d_campaign`: 18 poses (3 × 3 × 2 grid) of noise records, [`identify_campaign`];
 //! * `e_fmu`: one doStep of the slave core (no C layer) on the 3 × 3 × 2 grid twin.
 
-use identify::axis::{Axis, Channel};
+use identify::axis::Axis;
 use identify::campaign::{identify_campaign, CampaignOptions};
 use identify::frf::{fit_percent, Frf};
-use identify::model::{ChannelModel, ModalModel, Mode, ModeNum};
+use identify::model::{ModalModel, Mode};
 use identify::rational_fit::{fit_frf, FitOptions, Weighting};
 use identify::read::{write_frf_csv, write_timeseries};
 use identify::spectra::{estimate_frf, Excitation, FrfOptions};
 use identify::timeseries::{ResponseKind, TimeSeries};
 use mtwin_fmu::slave::Slave;
 use num_complex::Complex64;
-use rand::rngs::StdRng;
-use rand::{Rng, SeedableRng};
 use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -88,51 +86,12 @@ fn input_channels(mut frf: Frf, input: Axis) -> Frf {
 
 /// The 8-mode, 2-channel truth of `identify/benches/identify.rs`.
 fn truth8() -> ModalModel {
-    let fs = [95.0, 180.0, 410.0, 425.0, 760.0, 1100.0, 1550.0, 1900.0];
-    let z = [0.03, 0.02, 0.015, 0.02, 0.025, 0.01, 0.03, 0.05];
-    let modes: Vec<Mode> = fs
-        .iter()
-        .zip(z)
-        .map(|(&f, z)| Mode::from_hz(f, z))
-        .collect();
-    let shape_x = [1.0, 0.4, 0.8, -0.6, 0.5, 0.3, -0.4, 0.2];
-    let shape_y = [0.3, 1.0, -0.5, 0.7, 0.6, -0.5, 0.3, 0.4];
-    let mass = 50.0;
-    let ch = |o: Axis, sh: &[f64; 8]| ChannelModel {
-        channel: Channel::new(o, Axis::X),
-        num: (0..8)
-            .map(|k| ModeNum {
-                b0: sh[k] * shape_x[k] / mass,
-                b1: 0.0,
-            })
-            .collect(),
-        d: 0.0,
-    };
-    ModalModel {
-        modes,
-        channels: vec![ch(Axis::X, &shape_x), ch(Axis::Y, &shape_y)],
-    }
+    vmachine::cases::eight_modes()
 }
 
 /// The noisy FRF of `identify/benches/identify.rs` (1 % of |H| per line plus a floor).
 fn noisy(model: &ModalModel, freqs: &[f64], seed: u64) -> Frf {
-    let mut rng = StdRng::seed_from_u64(seed);
-    let mut frf = model.frf(freqs);
-    for c in &mut frf.channels {
-        let rms = (c.h.iter().map(|v| v.norm_sqr()).sum::<f64>() / c.h.len() as f64).sqrt();
-        let sigma: Vec<f64> = c.h.iter().map(|v| 0.01 * v.norm() + 1e-3 * rms).collect();
-        c.coherence = Some(
-            c.h.iter()
-                .zip(&sigma)
-                .map(|(v, s)| v.norm_sqr() / (v.norm_sqr() + s * s))
-                .collect(),
-        );
-        for (v, s) in c.h.iter_mut().zip(&sigma) {
-            let (a, b): (f64, f64) = (rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0));
-            *v += Complex64::new(a, b) * (s * 3f64.sqrt() / 2f64.sqrt());
-        }
-    }
-    frf
+    vmachine::cases::noisy_frf(model, freqs, seed)
 }
 
 /// A noise record of `machine` standing at `pose`: force along x, displacement x and y.
