@@ -40,6 +40,7 @@ fn numbers_right(
         }
         Effect::CrossCoupling => got.get("channel") == truth.get("channel"),
         Effect::PoseDependence => got.get("axis_of_variation") == truth.get("axis_of_variation"),
+        Effect::Nonlinearity => got.get("kind") == truth.get("kind"),
     }
 }
 

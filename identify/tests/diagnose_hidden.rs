@@ -224,3 +224,44 @@ fn hidden_pose_dependence_is_found_with_its_axis_and_rate() {
         assert!(d.fit_after_pct > d.fit_before_pct);
     }
 }
+
+#[test]
+fn hidden_nonlinearity_is_found_with_its_kind() {
+    // mode 2 (180 Hz) gets a cubic stiffness: hard hits (400 N) shift it by a few per
+    // cent, light ones (40 N) hardly; the twin was identified on a linear machine
+    let machine = ModalMachine::default_machine();
+    let tw = twin(&machine);
+    for (seed, sign) in [(41u64, 1.0), (42, -1.0)] {
+        let mut rng = StdRng::seed_from_u64(seed);
+        let shift = sign * rng.gen_range(0.03..0.05);
+        let mut recs =
+            vmachine::hidden::duffing_tests_at(&machine, 2, shift, 400.0, 40.0, POSE, &AXES, seed);
+        recs.extend(vmachine::hidden::duffing_tests_at(
+            &machine,
+            2,
+            shift,
+            400.0,
+            400.0,
+            POSE,
+            &AXES,
+            seed + 5,
+        ));
+        let (d, ext) = diagnose(&tw, &recs, &DiagnoseOptions::default()).unwrap();
+        eprintln!(
+            "seed {seed} duffing shift {shift:+.3} -> {:?} {} {}",
+            d.cause,
+            d.summary,
+            serde_json::to_string(&d.details).unwrap()
+        );
+        assert_eq!(d.cause, Cause::Nonlinearity, "{}", d.summary);
+        assert_eq!(
+            d.details["kind"],
+            if sign > 0.0 { "hardening" } else { "softening" }
+        );
+        let f = d.details["freq_hz"].as_f64().unwrap();
+        assert!((f - 180.0).abs() < 0.02 * 180.0, "{f} Hz");
+        assert!(ext.validate(std::path::Path::new("ext")).is_ok());
+        // the gain, when the linearised twin gives one; never a loss
+        assert!(d.fit_after_pct >= d.fit_before_pct);
+    }
+}

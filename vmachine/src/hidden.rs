@@ -12,6 +12,7 @@
 //! | `Disturbance` | a 600–700 Hz sinusoid on x, 30 % of the response RMS | `freq_hz` |
 //! | `CrossCoupling` | the twin knows x→x only; the data also record y | `channel` |
 //! | `PoseDependence` | the twin has one pose; the data come from two poses ±0.15–0.25 m along x or y | `axis_of_variation`, `freq_shift_pct_per_m` |
+//! | `Nonlinearity` | mode 2 (180 Hz) with a cubic stiffness shifting it 3–5 % (±) at 400 N hits; tests at 40 N and 400 N | `kind` |
 
 use crate::daq::{impact_record, Daq};
 use crate::structure::{ModalMachine, VMode};
@@ -46,11 +47,13 @@ pub enum Effect {
     CrossCoupling,
     /// Modes that move with the pose beyond the twin's poses.
     PoseDependence,
+    /// A mode with a cubic stiffness (hardening or softening).
+    Nonlinearity,
 }
 
 impl Effect {
     /// Every effect.
-    pub const ALL: [Effect; 7] = [
+    pub const ALL: [Effect; 8] = [
         Effect::None,
         Effect::ModeChange,
         Effect::UnmodeledMode,
@@ -58,6 +61,7 @@ impl Effect {
         Effect::Disturbance,
         Effect::CrossCoupling,
         Effect::PoseDependence,
+        Effect::Nonlinearity,
     ];
 
     /// The SPEC cause code.
@@ -70,6 +74,7 @@ impl Effect {
             Effect::Disturbance => "disturbance",
             Effect::CrossCoupling => "cross_coupling",
             Effect::PoseDependence => "pose_dependence",
+            Effect::Nonlinearity => "nonlinearity",
         }
     }
 }
@@ -203,6 +208,26 @@ pub fn case(effect: Effect, seed: u64, base: &Twin) -> Case {
             }
             (base.clone(), recs)
         }
+        Effect::Nonlinearity => {
+            let sign = if rng.gen_bool(0.5) { 1.0 } else { -1.0 };
+            let shift = sign * rng.gen_range(0.03..0.05);
+            truth.insert(
+                "kind".into(),
+                if sign > 0.0 { "hardening" } else { "softening" }.into(),
+            );
+            let mut recs = duffing_tests_at(&machine, 2, shift, 400.0, 40.0, POSE, &AXES, fresh);
+            recs.extend(duffing_tests_at(
+                &machine,
+                2,
+                shift,
+                400.0,
+                400.0,
+                POSE,
+                &AXES,
+                fresh + 5,
+            ));
+            (base.clone(), recs)
+        }
     };
     Case {
         effect,
@@ -210,4 +235,94 @@ pub fn case(effect: Effect, seed: u64, base: &Twin) -> Case {
         records,
         truth,
     }
+}
+
+/// Impact tests where mode `k` has a cubic (Duffing) modal stiffness: hammer along each of
+/// `axes` with hits of about `peak` N, responses (acceleration) along `out`. The cubic
+/// coefficient is chosen so that at the response amplitude of `ref_peak` N hits the
+/// mode's backbone frequency is `shift` higher (hardening; negative = softening). The
+/// other modes stay linear (exact simulation); mode `k` is integrated with RK4 at the
+/// simulation rate.
+#[allow(clippy::too_many_arguments)]
+pub fn duffing_tests_at(
+    m: &ModalMachine,
+    k: usize,
+    shift: f64,
+    ref_peak: f64,
+    peak: f64,
+    pose: [f64; 3],
+    out: &[Axis],
+    seed: u64,
+) -> Vec<TimeSeries> {
+    use crate::daq::{acquire, simulate_machine};
+    use crate::excitation::{hit_series, impacts};
+    let daq = Daq::default();
+    let fs = daq.fs_sim();
+    let mut lin = m.clone();
+    let v = lin.modes.remove(k);
+    let mode = m.mode_at(k, pose);
+    let (w, z) = (mode.wn, mode.zeta);
+    // amplitude of the mode after a ref_peak hit (half-sine of 0.25 ms): impulse/(m ω)
+    let impulse = ref_peak * 2.5e-4 * 2.0 / std::f64::consts::PI;
+    let a_ref = v.shape.iter().fold(0.0f64, |a, s| a.max(s.abs())) * impulse / (v.mass * w);
+    // backbone ω_eff² = ω²(1 + ¾ γ A²)
+    let gamma = ((1.0 + shift).powi(2) - 1.0) / (0.75 * a_ref * a_ref);
+    AXES.iter()
+        .enumerate()
+        .map(|(ai, axis)| {
+            let spacing = 0.5;
+            let n = ((5.0 * spacing + 0.05) * fs) as usize;
+            let hs = hit_series(5, 0.02, spacing, peak, 2.5e-4, seed + ai as u64);
+            let f = impacts(fs, n, &hs, None);
+            let mut forces: [Option<Vec<f64>>; 3] = [None, None, None];
+            forces[axis.index()] = Some(f.clone());
+            let pose_at = move |_t: f64| pose;
+            let mut resp = simulate_machine(&lin, &forces, fs, &pose_at, out, daq.response);
+            // the Duffing mode: η'' + 2ζωη' + ω²(η + γη³) = φ_axis F / m
+            let phi_in = v.shape[axis.index()];
+            let acc = |eta: f64, vel: f64, force: f64| {
+                phi_in * force / v.mass - 2.0 * z * w * vel - w * w * (eta + gamma * eta.powi(3))
+            };
+            let h = 1.0 / fs;
+            let (mut eta, mut vel) = (0.0f64, 0.0f64);
+            let mut eta_dd = vec![0.0; n];
+            for i in 0..n {
+                let f0 = f[i];
+                let f1 = if i + 1 < n { f[i + 1] } else { f0 };
+                let fm = 0.5 * (f0 + f1);
+                eta_dd[i] = acc(eta, vel, f0);
+                let (k1x, k1v) = (vel, acc(eta, vel, f0));
+                let (k2x, k2v) = (
+                    vel + 0.5 * h * k1v,
+                    acc(eta + 0.5 * h * k1x, vel + 0.5 * h * k1v, fm),
+                );
+                let (k3x, k3v) = (
+                    vel + 0.5 * h * k2v,
+                    acc(eta + 0.5 * h * k2x, vel + 0.5 * h * k2v, fm),
+                );
+                let (k4x, k4v) = (vel + h * k3v, acc(eta + h * k3x, vel + h * k3v, f1));
+                eta += h / 6.0 * (k1x + 2.0 * k2x + 2.0 * k3x + k4x);
+                vel += h / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v);
+            }
+            for o in out {
+                if let Some(r) = resp[o.index()].as_mut() {
+                    let phi_o = v.shape[o.index()];
+                    for (ri, a) in r.iter_mut().zip(&eta_dd) {
+                        *ri += phi_o * a;
+                    }
+                }
+            }
+            let daq = Daq {
+                seed: daq.seed ^ (seed + ai as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15),
+                ..daq.clone()
+            };
+            acquire(
+                forces,
+                resp,
+                &pose_at,
+                &daq,
+                &format!("impact_{axis}_{peak:.0}N"),
+            )
+        })
+        .collect()
 }
