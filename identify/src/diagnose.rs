@@ -511,19 +511,23 @@ struct Cand {
     details: Map<String, Value>,
 }
 
+/// Mode `k` of `model` alone refitted to `pts` (frequency may move up to ~30 %).
+fn retune(
+    model: &ModalModel,
+    k: usize,
+    pts: &[Points],
+) -> Result<crate::modal_update::UpdateResult> {
+    let prior = Prior {
+        ln_wn: 0.3,
+        ..Prior::default()
+    };
+    update_modes(model, &[k], pts, prior, 40)
+}
+
 fn cand_mode_change(twin: &Twin, model: &ModalModel, pts: &[Points]) -> Option<Cand> {
     let mut best: Option<(f64, usize, ModalModel)> = None;
     for k in 0..model.modes.len() {
-        let Ok(r) = update_modes(
-            model,
-            &[k],
-            pts,
-            Prior {
-                ln_wn: 0.3,
-                ..Prior::default()
-            },
-            40,
-        ) else {
+        let Ok(r) = retune(model, k, pts) else {
             continue;
         };
         let c = chi(&r.model, pts, 0.0);
@@ -588,17 +592,7 @@ fn cand_pose_dependence(
         let mut shifts = Vec::new();
         let mut models = Vec::new();
         for (_, m0, pts, _, _) in &per {
-            let r = update_modes(
-                m0,
-                &[k],
-                pts,
-                Prior {
-                    ln_wn: 0.3,
-                    ..Prior::default()
-                },
-                40,
-            )
-            .ok()?;
+            let r = retune(m0, k, pts).ok()?;
             // a shift only counts where the refit explains the data better
             if chi(&r.model, pts, 0.0) > 0.9 * chi(m0, pts, 0.0) {
                 shifts.push(0.0);
@@ -758,17 +752,10 @@ fn cand_nonlinearity(
         (!p.is_empty()).then_some(p)
     };
     let (pl, ph) = (pts_of(&low_recs)?, pts_of(&high_recs)?);
-    let prior = Prior {
-        ln_wn: 0.3,
-        ..Prior::default()
-    };
     // (|relative frequency change| + damping change share, mode, low, high)
     let mut best: Option<(f64, usize, ModalModel, ModalModel)> = None;
     for k in 0..m0.modes.len() {
-        let Ok(a) = update_modes(&m0, &[k], &pl, prior, 40) else {
-            continue;
-        };
-        let Ok(b) = update_modes(&m0, &[k], &ph, prior, 40) else {
+        let (Ok(a), Ok(b)) = (retune(&m0, k, &pl), retune(&m0, k, &ph)) else {
             continue;
         };
         let df = b.model.modes[k].wn / a.model.modes[k].wn - 1.0;
