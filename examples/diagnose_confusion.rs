@@ -86,6 +86,13 @@ fn main() {
             table[ei][ci] += 1;
             if code == e.code() && numbers_right(*e, &c.truth, &d.details) {
                 right[ei] += 1;
+            } else if std::env::var_os("MTWIN_CONFUSION_VERBOSE").is_some() {
+                eprintln!(
+                    "{} seed {s}: found {code}, truth {}, details {}",
+                    e.code(),
+                    serde_json::Value::Object(c.truth.clone()),
+                    serde_json::Value::Object(d.details.clone())
+                );
             }
         }
     }

@@ -752,30 +752,39 @@ fn cand_nonlinearity(
         (!p.is_empty()).then_some(p)
     };
     let (pl, ph) = (pts_of(&low_recs)?, pts_of(&high_recs)?);
-    // (|relative frequency change| + damping change share, mode, low, high)
-    let mut best: Option<(f64, usize, ModalModel, ModalModel)> = None;
+    // per mode: relative frequency and damping change from light to hard hits
+    let mut moves: Vec<(usize, f64, f64, ModalModel, ModalModel)> = Vec::new();
     for k in 0..m0.modes.len() {
         let (Ok(a), Ok(b)) = (retune(&m0, k, &pl), retune(&m0, k, &ph)) else {
             continue;
         };
         let df = b.model.modes[k].wn / a.model.modes[k].wn - 1.0;
         let dz = b.model.modes[k].zeta / a.model.modes[k].zeta - 1.0;
-        let score = df.abs().max(0.1 * dz.abs());
-        if best.as_ref().is_none_or(|x| score > x.0) {
-            best = Some((score, k, a.model, b.model));
-        }
+        moves.push((k, df, dz, a.model, b.model));
     }
-    let (score, k, low, high) = best?;
+    // the mode whose FREQUENCY moves most (≥ 0.5 %); a neighbour it pushes changes its
+    // damping more than its frequency. Without a frequency move, a damping drop ≥ 20 %
+    // under hard hits is friction.
+    let by_f = moves
+        .iter()
+        .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
+        .filter(|m| m.1.abs() >= 0.005);
+    let by_z = || {
+        moves
+            .iter()
+            .filter(|m| m.2 <= -0.2)
+            .min_by(|a, b| a.2.total_cmp(&b.2))
+    };
+    let (k, score, low, high) = match by_f.or_else(by_z) {
+        Some((k, df, dz, a, b)) => (*k, df.abs().max(0.1 * dz.abs()), a.clone(), b.clone()),
+        None => return None,
+    };
     if std::env::var_os("MTWIN_DEBUG_DIAGNOSE").is_some() {
         eprintln!(
             "nonlinearity: mode {k} score {score:.4}: {:.2} -> {:.2} Hz",
             low.modes[k].freq_hz(),
             high.modes[k].freq_hz()
         );
-    }
-    // at least 0.5 % of frequency (or 5 % of damping) between the force levels
-    if score < 0.005 {
-        return None;
     }
     let df = high.modes[k].wn / low.modes[k].wn - 1.0;
     let dz = high.modes[k].zeta / low.modes[k].zeta - 1.0;
