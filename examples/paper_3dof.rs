@@ -122,7 +122,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     let twin = kept.ok_or("no model")?;
     let model = &twin.poses[0].model;
-    let d = daq(0.005);
+    let mut d = daq(0.005);
+    if std::env::var_os("MTWIN_NO_FORCE_NOISE").is_some() {
+        d.force_noise = 0.0;
+    }
 
     // --- 2. the discrete transfer function of paper eq. (1)
     let (b, a) = model.discrete_tf(0, 0.01);
@@ -180,7 +183,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let before = fit_vs_truth(model, &worn, &freqs_all);
     println!("\n## 3. Refit after k1 -10 % (paper 3.2)");
     println!("twin before refit vs changed chain (0.01-40 Hz): {before:.2} %");
-    for method in [RefitMethod::Paper, RefitMethod::Modal] {
+    for method in [RefitMethod::Paper, RefitMethod::Modal, RefitMethod::Time] {
         let t = Instant::now();
         let (tw2, rep) = refit(
             &twin,
@@ -198,8 +201,41 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let fit = fit_vs_truth(&tw2.poses[0].model, &worn, &freqs_all);
         if std::env::var_os("MTWIN_VERBOSE").is_some() {
             eprintln!("truth {:?}", worn.natural_freqs_hz());
-            for m in &rep.modes {
-                eprintln!("{m:?}");
+            let um = &tw2.poses[0].model;
+            for (lo, hi) in [
+                (0.01, 2.0),
+                (2.0, 5.0),
+                (5.0, 11.0),
+                (11.0, 15.0),
+                (15.0, 40.0),
+            ] {
+                let fr: Vec<f64> = freqs_all
+                    .iter()
+                    .copied()
+                    .filter(|f| (lo..hi).contains(f))
+                    .collect();
+                let err: f64 = fr
+                    .iter()
+                    .map(|&f| (um.eval_hz(0, f) - worn.receptance(f)).norm_sqr())
+                    .sum();
+                let tot: f64 = freqs_all
+                    .iter()
+                    .map(|&f| worn.receptance(f).norm_sqr())
+                    .sum();
+                eprintln!(
+                    "  {lo}-{hi} Hz: share of squared error {:.2e} of total |H|^2",
+                    err / tot
+                );
+            }
+            for (k, m) in um.modes.iter().enumerate() {
+                let n = um.channels[0].num[k];
+                eprintln!(
+                    "  mode {k}: {:.5} Hz zeta {:.6} b0 {:.4e} b1*wn/b0 {:.2e}",
+                    m.freq_hz(),
+                    m.zeta,
+                    n.b0,
+                    n.b1 * m.wn / n.b0
+                );
             }
             let near: Vec<f64> = rep
                 .lines_hz

@@ -45,6 +45,7 @@ pub mod lobes;
 pub mod modal_update;
 pub mod model;
 pub mod operating;
+pub mod output_error;
 pub mod rational_fit;
 pub mod read;
 pub mod refit;

@@ -50,6 +50,9 @@ pub enum RefitMethod {
     Paper,
     /// mtwin's direct modal update from operating cross-spectra.
     Modal,
+    /// The modal update, then the updated modes refined by output error on the records
+    /// themselves ([`crate::output_error`]: no Welch window, no leakage).
+    Time,
 }
 
 /// Options of [`refit`].
@@ -85,7 +88,7 @@ pub struct RefitOptions {
 impl Default for RefitOptions {
     fn default() -> Self {
         RefitOptions {
-            method: RefitMethod::Modal,
+            method: RefitMethod::Time,
             drift_threshold_pct: 5.0,
             drift_chi: 5.0,
             force: false,
@@ -134,6 +137,9 @@ pub struct RefitReport {
     pub modes: Vec<ModeChange>,
     /// Weight of the change at each measured pose.
     pub pose_weights: Vec<([f64; 3], f64)>,
+    /// The output-error stage (method `time`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub output_error: Option<crate::output_error::OeSummary>,
 }
 
 /// One response axis: the axis, the measured and the simulated samples.
@@ -565,6 +571,7 @@ pub fn refit(
         lines_hz: lines.iter().map(|&l| sp.freqs_hz[l]).collect(),
         modes: Vec::new(),
         pose_weights: Vec::new(),
+        output_error: None,
     };
     if !(drifted || opts.force) {
         return Ok((twin.clone(), report));
@@ -583,7 +590,7 @@ pub fn refit(
         .min_by(|&a, &b| d2(&twin.poses[a].pose).total_cmp(&d2(&twin.poses[b].pose)))
         .unwrap_or(0);
     let (new, new_frf) = match opts.method {
-        RefitMethod::Modal => {
+        RefitMethod::Modal | RefitMethod::Time => {
             let lines_c = coherent_lines(&sp, opts);
             let pts = operating_points(&sp, &lines_c, &old, None);
             report.lines_hz = lines_c.iter().map(|&l| sp.freqs_hz[l]).collect();
@@ -592,9 +599,17 @@ pub fn refit(
             // reweighted pass: standard errors from the updated model's |H|
             let pts2 = operating_points(&sp, &lines_c, &old, Some(&first.model));
             let res = update_modes(&old, &free, &pts2, Prior::default(), 60)?;
+            let model = if opts.method == RefitMethod::Time {
+                let oe =
+                    crate::output_error::refine(&res.model, &free, records, Default::default())?;
+                report.output_error = Some(oe.summary());
+                oe.model
+            } else {
+                res.model
+            };
             let prev = &twin.poses[near].frf;
             let (frf, _) = intermediate_frf(prev, &old, &sp, &lines);
-            (res.model, frf)
+            (model, frf)
         }
         RefitMethod::Paper => {
             let prev = &twin.poses[near].frf;

@@ -68,7 +68,11 @@ fn worn_mode_seen_in_milling_at_three_speeds_both_methods() {
     let before = accuracy(&twin, &worn, c);
     assert!(before < 50.0, "the wear must matter: {before:.2} %");
     let truth_f = worn.mode_at(2, c).freq_hz();
-    for (method, min_fit) in [(RefitMethod::Modal, 98.0), (RefitMethod::Paper, 97.5)] {
+    for (method, min_fit) in [
+        (RefitMethod::Modal, 98.0),
+        (RefitMethod::Time, 99.5),
+        (RefitMethod::Paper, 97.5),
+    ] {
         let (new, rep) = refit(
             &twin,
             &data,
@@ -103,7 +107,7 @@ fn worn_mode_seen_in_milling_at_three_speeds_both_methods() {
             "{method:?}: {} Hz vs {truth_f} Hz",
             m2.freq_after_hz
         );
-        if method == RefitMethod::Modal {
+        if method != RefitMethod::Paper {
             // mtwin's update frees only what changed
             assert_eq!(rep.modes.len(), 1, "{:?}", rep.modes);
         }
@@ -159,9 +163,8 @@ fn lifetime_sequence_tracks_every_wear_step_and_keeps_the_history() {
             }
         }
         assert!(rep.updated, "step {i}: drift not detected");
-        // every step tracked: the FRF (damping carries ±7 % scatter from 45 s of data)
-        // and the worn mode's frequency
-        assert!(after >= 95.0, "step {i}: {after:.2} %");
+        // every step tracked: the FRF and the worn mode's frequency
+        assert!(after >= 99.0, "step {i}: {after:.2} %");
         for m in &rep.modes {
             let f = truth.mode_at(m.mode, c).freq_hz();
             assert!(
@@ -189,4 +192,96 @@ fn lifetime_sequence_tracks_every_wear_step_and_keeps_the_history() {
         assert_eq!(entry.previous_poses, s.poses, "state {k} lost");
     }
     assert_eq!(back.poses, twin.poses);
+}
+
+/// The paper's scenario (section 3.2) on its 3-DoF chain: k1 −10 %, a milling-like force
+/// (tooth passing at 2.9 Hz with 6 harmonics plus a broadband share), 0.5 % sensor noise on
+/// force AND response. The twin before the wear is the exact chain, so the test measures
+/// the refit alone; the updated FRF is scored against the analytic FRF of the worn chain
+/// (0.01–40 Hz). Paper: 95.23 %; target 99 %.
+#[test]
+fn paper_chain_k1_loss_time_update_beats_99_percent() {
+    use identify::twin::{OrderInfo, PoseModel};
+    use num_complex::Complex64;
+    use std::f64::consts::PI;
+    use vmachine::chain::MdofChain;
+    use vmachine::daq::chain_record;
+    use vmachine::excitation::noise;
+
+    let chain = MdofChain::paper_chain();
+    let model = chain.modal_model().expect("proportional damping");
+    let freqs: Vec<f64> = (1..=4000).map(|k| k as f64 * 0.01).collect();
+    let twin = Twin::new(
+        "paper chain",
+        vec![PoseModel {
+            pose: [0.0; 3],
+            frf: model.frf(&freqs),
+            model,
+            band_hz: [0.01, 40.0],
+            fit: vec![],
+            order: OrderInfo {
+                modes: 3,
+                automatic: false,
+                stable_freqs_hz: vec![],
+            },
+            sources: vec![],
+            frf_exp_window_sigma: None,
+        }],
+    );
+    let worn = chain.clone().with_k1_factor(0.9);
+    let daq = Daq {
+        fs: 100.0,
+        oversample: 8,
+        force_noise: 0.005,
+        response_noise: 0.005,
+        response: identify::timeseries::ResponseKind::Displacement,
+        seed: 11,
+    };
+    let fs = daq.fs_sim();
+    let n = (1800.0 * fs) as usize;
+    let mut f: Vec<f64> = (0..n)
+        .map(|i| {
+            let t = i as f64 / fs;
+            20.0 + (1..=6)
+                .map(|h| (8.0 / h as f64) * (2.0 * PI * 2.9 * h as f64 * t + 0.3 * h as f64).sin())
+                .sum::<f64>()
+        })
+        .collect();
+    f.iter_mut()
+        .zip(noise(n, 2.0, 21))
+        .for_each(|(a, b)| *a += b);
+    let op = chain_record(&worn, f, &daq, "milling_like");
+    let score = |t: &Twin| {
+        let truth: Vec<Complex64> = freqs.iter().map(|&f| worn.receptance(f)).collect();
+        let est: Vec<Complex64> = freqs
+            .iter()
+            .map(|&f| t.poses[0].model.eval_hz(0, f))
+            .collect();
+        fit_percent(&truth, &est)
+    };
+    let before = score(&twin);
+    let mut fits = Vec::new();
+    for method in [RefitMethod::Modal, RefitMethod::Time] {
+        let (new, rep) = refit(
+            &twin,
+            std::slice::from_ref(&op),
+            &RefitOptions {
+                method,
+                ..RefitOptions::default()
+            },
+        )
+        .unwrap();
+        let after = score(&new);
+        eprintln!(
+            "paper chain, {method:?}: {before:.2} % -> {after:.2} % vs the worn chain; output error {:?}",
+            rep.output_error
+        );
+        fits.push(after);
+    }
+    assert!(before < 0.0, "the wear must matter: {before:.2} %");
+    assert!(fits[1] >= 99.0, "time update {:.2} % < 99 %", fits[1]);
+    assert!(
+        fits[1] > fits[0],
+        "output error must gain on the modal update"
+    );
 }

@@ -21,8 +21,10 @@ pub struct Args {
     /// Also export the updated FMU here.
     #[arg(long)]
     pub fmu: Option<PathBuf>,
-    /// modal (mtwin's direct modal update, default) or paper (intermediate FRF + weighted refit).
-    #[arg(long, default_value = "modal", value_parser = ["modal", "paper"])]
+    /// time (default: mtwin's modal update from the operating cross-spectra, then the
+    /// updated modes refined by output error on the records), modal (the modal update
+    /// alone) or paper (intermediate FRF + weighted refit).
+    #[arg(long, default_value = "time", value_parser = ["time", "modal", "paper"])]
     pub method: String,
     /// Refit when the simulated response fits worse than 100 - this \[%\].
     #[arg(long, default_value_t = 5.0)]
@@ -57,10 +59,10 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
     let twin = Twin::load(&a.twin)?;
     let series = read_series(&a.files, out)?;
     let opts = RefitOptions {
-        method: if a.method == "paper" {
-            RefitMethod::Paper
-        } else {
-            RefitMethod::Modal
+        method: match a.method.as_str() {
+            "paper" => RefitMethod::Paper,
+            "time" => RefitMethod::Time,
+            _ => RefitMethod::Modal,
         },
         drift_threshold_pct: a.drift_threshold,
         force: a.force,
@@ -94,6 +96,20 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
             "  {} lines used; simulated response fit after: {:.2} %",
             rep.lines_hz.len(),
             rep.fit_after_pct
+        ));
+    }
+    if let Some(oe) = &rep.output_error {
+        out.say(format!(
+            "  output-error stage: residual {:.2} % -> {:.2} % of the response RMS in {} iterations \
+             (first {:.2} s of each record not fitted); force noise floor {:?} of the force's median level",
+            100.0 * oe.rel_rms_before,
+            100.0 * oe.rel_rms_after,
+            oe.iterations,
+            oe.skipped_s,
+            oe.force_noise
+                .iter()
+                .map(|v| format!("{:.1} %", 100.0 * v))
+                .collect::<Vec<_>>()
         ));
     }
     if let Some(f) = &a.fmu {

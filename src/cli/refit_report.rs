@@ -50,6 +50,26 @@ pub fn refit_report(old: &Twin, new: &Twin, rep: &RefitReport, series: &[TimeSer
         },
         rep.lines_hz.len()
     );
+    if let Some(oe) = &rep.output_error {
+        let _ = writeln!(
+            b,
+            "<h2>Output-error stage</h2><p>The modes the cross-spectra moved were refined on the \
+             records themselves (no Welch window): output residual {:.2} % → {:.2} % of the response \
+             RMS in {} iterations; the first {:.2} s of each record (the start-up transient) were not \
+             fitted; estimated force noise floor {} of the force's median spectral level (the fit \
+             regresses on the force's conditional expectation, so sensor noise on the force does not \
+             bias the damping).</p>",
+            100.0 * oe.rel_rms_before,
+            100.0 * oe.rel_rms_after,
+            oe.iterations,
+            oe.skipped_s,
+            oe.force_noise
+                .iter()
+                .map(|v| format!("{:.1} %", 100.0 * v))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
     if !rep.modes.is_empty() {
         let _ = writeln!(
             b,
