@@ -134,6 +134,8 @@ pub struct Slave {
     vars: Vec<Var>,
     ev: TwinEvaluator,
     sim: Simulator,
+    /// External vibrations of the twin's extensions, added to the outputs at the FMU time.
+    disturbance: Vec<identify::twin::Sinusoid>,
     /// Fx, Fy, Fz, x, y, z.
     inputs: [f64; 6],
     start: [f64; 6],
@@ -147,10 +149,28 @@ impl Slave {
     pub fn new(twin: &Twin) -> Result<Self, String> {
         let ev = TwinEvaluator::new(twin).map_err(|e| e.to_string())?;
         let n = ev.n_modes();
+        // the twin's extensions: a cubic modal stiffness and external vibrations are part of
+        // the machine and go into the FMU; a delay between the force and response channels
+        // belongs to the measuring chain, not to the tool centre point, and stays out
+        let mut sim = Simulator::new(n, Hold::Zoh);
+        let kappa: Vec<f64> = (0..n)
+            .map(|k| {
+                twin.extensions
+                    .cubic
+                    .iter()
+                    .filter(|c| c.mode == k)
+                    .map(|c| c.kappa)
+                    .sum()
+            })
+            .collect();
+        if !sim.set_cubic(&kappa) {
+            return Err("the twin's cubic stiffness terms are not finite".into());
+        }
         Ok(Slave {
             vars: variables(twin),
             ev,
-            sim: Simulator::new(n, Hold::Zoh),
+            sim,
+            disturbance: twin.extensions.disturbance.clone(),
             inputs: [0.0; 6],
             start: [0.0; 6],
             time: 0.0,
@@ -273,7 +293,12 @@ impl Slave {
         let pose = self.pose();
         let u = self.force();
         let model = self.ev.model_at(pose);
-        self.sim.output(model, &u)
+        let mut y = self.sim.output(model, &u);
+        for d in &self.disturbance {
+            let ph = 2.0 * std::f64::consts::PI * d.freq_hz * self.time;
+            y[d.axis.index()] += d.a * ph.cos() + d.b * ph.sin();
+        }
+        y
     }
 
     /// `fmi2GetReal`.

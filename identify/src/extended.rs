@@ -1,17 +1,15 @@
 //! Simulation of a twin with its extensions (delay, disturbance, cubic stiffness).
 //!
-//! The linear modal part runs through the exact state-space core
-//! ([`crate::simulate::Simulator`]); a mode with a cubic stiffness term is integrated
-//! instead with classical Runge–Kutta (8 sub-steps per sample, force linear between
-//! samples); a constant delay shifts the response by linear interpolation between
+//! Everything runs through the state-space core ([`crate::simulate::Simulator`], the one
+//! the FMU uses): exact discretisation for linear modes, classical Runge–Kutta for a mode
+//! with a cubic stiffness term ([`Simulator::set_cubic`]); a constant delay shifts the response by linear interpolation between
 //! samples; an external vibration is added as sinusoids of absolute time.
 //!
 //! A cubic term acts on each force axis' modal coordinate separately, which is exact
 //! for excitation along one axis (impact tests) and an approximation otherwise.
 
 use crate::interpolate::{simulate_twin, TwinEvaluator};
-use crate::model::ModalModel;
-use crate::simulate::{Hold, SectionStep};
+use crate::simulate::{Hold, Simulator};
 use crate::twin::Twin;
 use std::f64::consts::PI;
 
@@ -30,7 +28,7 @@ pub fn simulate_extended(
     let mut y = if ext.cubic.is_empty() {
         simulate_twin(&mut ev, forces, &pose_at, dt, hold)
     } else {
-        simulate_cubic(&mut ev, forces, &pose_at, dt, &ext.cubic)
+        simulate_cubic(&mut ev, forces, &pose_at, dt, hold, &ext.cubic)
     };
     if let Some(tau) = ext.delay_s {
         y = delay(&y, tau / dt);
@@ -67,73 +65,24 @@ fn simulate_cubic(
     forces: &[[f64; 3]],
     pose_at: &impl Fn(usize) -> [f64; 3],
     dt: f64,
+    hold: Hold,
     cubic: &[crate::twin::CubicStiffness],
 ) -> Vec<[f64; 3]> {
     let nm = ev.n_modes();
-    let mut state = vec![[0.0f64; 2]; 3 * nm];
     let kappa: Vec<f64> = (0..nm)
         .map(|k| cubic.iter().filter(|c| c.mode == k).map(|c| c.kappa).sum())
         .collect();
-    let out_at = |m: &ModalModel, st: &[[f64; 2]], u: &[f64; 3]| {
-        let mut y = [0.0; 3];
-        for ch in &m.channels {
-            let (o, j) = (ch.channel.output.index(), ch.channel.input.index());
-            let mut acc = ch.d * u[j];
-            for (k, n) in ch.num.iter().enumerate() {
-                let x = st[k * 3 + j];
-                acc += n.b0 * x[0] + n.b1 * x[1];
-            }
-            y[o] += acc;
-        }
-        y
-    };
+    let mut sim = Simulator::new(nm, hold);
+    sim.set_cubic(&kappa);
     let mut out = Vec::with_capacity(forces.len());
     if forces.is_empty() {
         return out;
     }
-    out.push(out_at(ev.model_at(pose_at(0)), &state, &forces[0]));
-    const SUB: usize = 8;
+    out.push(sim.output(ev.model_at(pose_at(0)), &forces[0]));
     for i in 1..forces.len() {
         let m = ev.model_at(pose_at(i - 1)).clone();
-        for (k, mode) in m.modes.iter().enumerate() {
-            let (w, z) = (mode.wn, mode.zeta);
-            if kappa[k] == 0.0 {
-                let st = SectionStep::new(mode, dt, Hold::Foh);
-                for j in 0..3 {
-                    st.advance(&mut state[k * 3 + j], forces[i - 1][j], forces[i][j]);
-                }
-                continue;
-            }
-            let h = dt / SUB as f64;
-            for j in 0..3 {
-                let (u0, u1) = (forces[i - 1][j], forces[i][j]);
-                let f = |t: f64, x: [f64; 2]| -> [f64; 2] {
-                    let u = u0 + (u1 - u0) * t / dt;
-                    [
-                        x[1],
-                        u - 2.0 * z * w * x[1] - w * w * x[0] * (1.0 + kappa[k] * x[0] * x[0]),
-                    ]
-                };
-                let mut x = state[k * 3 + j];
-                for s in 0..SUB {
-                    let t = s as f64 * h;
-                    let k1 = f(t, x);
-                    let k2 = f(
-                        t + h / 2.0,
-                        [x[0] + h / 2.0 * k1[0], x[1] + h / 2.0 * k1[1]],
-                    );
-                    let k3 = f(
-                        t + h / 2.0,
-                        [x[0] + h / 2.0 * k2[0], x[1] + h / 2.0 * k2[1]],
-                    );
-                    let k4 = f(t + h, [x[0] + h * k3[0], x[1] + h * k3[1]]);
-                    x[0] += h / 6.0 * (k1[0] + 2.0 * k2[0] + 2.0 * k3[0] + k4[0]);
-                    x[1] += h / 6.0 * (k1[1] + 2.0 * k2[1] + 2.0 * k3[1] + k4[1]);
-                }
-                state[k * 3 + j] = x;
-            }
-        }
-        out.push(out_at(ev.model_at(pose_at(i)), &state, &forces[i]));
+        sim.step(&m, &forces[i - 1], &forces[i], dt);
+        out.push(sim.output(ev.model_at(pose_at(i)), &forces[i]));
     }
     out
 }
@@ -143,7 +92,7 @@ mod tests {
     use super::*;
     use crate::axis::{Axis, Channel};
     use crate::frf::Frf;
-    use crate::model::{ChannelModel, Mode, ModeNum};
+    use crate::model::{ChannelModel, ModalModel, Mode, ModeNum};
     use crate::twin::{CubicStiffness, PoseModel, Sinusoid};
 
     fn twin() -> Twin {

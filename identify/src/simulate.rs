@@ -159,6 +159,8 @@ pub struct Simulator {
     steps: Vec<SectionStep>,
     /// The modes and step the cached `steps` were built for.
     cached: Option<(Vec<Mode>, f64)>,
+    /// Cubic modal stiffness κ per mode (empty = all linear).
+    cubic: Vec<f64>,
 }
 
 impl Simulator {
@@ -170,7 +172,26 @@ impl Simulator {
             state: vec![[0.0; 2]; 3 * n_modes],
             steps: Vec::with_capacity(n_modes),
             cached: None,
+            cubic: Vec::new(),
         }
+    }
+
+    /// Gives mode `k` a cubic stiffness `κ_k`: `q̈ + 2ζω q̇ + ω² q (1 + κ q²) = F` on each
+    /// force axis' modal coordinate (exact for excitation along one axis, an approximation
+    /// otherwise). Such modes are integrated with classical Runge–Kutta (sub-steps of at
+    /// most 1/20 of the mode's period, at least 8 per step) under the simulator's hold;
+    /// the others keep the exact discretisation. Returns false (and changes nothing) when
+    /// `kappa` has the wrong length or a non-finite value.
+    pub fn set_cubic(&mut self, kappa: &[f64]) -> bool {
+        if kappa.len() != self.n_modes || !kappa.iter().all(|v| v.is_finite()) {
+            return false;
+        }
+        self.cubic = if kappa.iter().all(|v| *v == 0.0) {
+            Vec::new()
+        } else {
+            kappa.to_vec()
+        };
+        true
     }
 
     /// The hold used between samples.
@@ -227,9 +248,22 @@ impl Simulator {
             }
         }
         for (k, st) in self.steps.iter().enumerate() {
+            let kappa = self.cubic.get(k).copied().unwrap_or(0.0);
             for j in 0..3 {
                 if u0[j] != 0.0 || u1[j] != 0.0 || self.state[k * 3 + j] != [0.0, 0.0] {
-                    st.advance(&mut self.state[k * 3 + j], u0[j], u1[j]);
+                    if kappa == 0.0 {
+                        st.advance(&mut self.state[k * 3 + j], u0[j], u1[j]);
+                    } else {
+                        let u1 = if self.hold == Hold::Foh { u1[j] } else { u0[j] };
+                        rk4_cubic(
+                            &mut self.state[k * 3 + j],
+                            &model.modes[k],
+                            kappa,
+                            u0[j],
+                            u1,
+                            h,
+                        );
+                    }
                 }
             }
         }
@@ -250,6 +284,37 @@ impl Simulator {
         }
         y
     }
+}
+
+/// Advances `q̈ + 2ζω q̇ + ω² q (1 + κ q²) = u(t)` over `h`, `u` linear from `u0` to `u1`.
+fn rk4_cubic(x: &mut [f64; 2], mode: &Mode, kappa: f64, u0: f64, u1: f64, h: f64) {
+    let (w, z) = (mode.wn, mode.zeta);
+    let n = ((h * w / (2.0 * std::f64::consts::PI) * 20.0).ceil() as usize).clamp(8, 100_000);
+    let dt = h / n as f64;
+    let f = |t: f64, x: [f64; 2]| -> [f64; 2] {
+        let u = u0 + (u1 - u0) * t / h;
+        [
+            x[1],
+            u - 2.0 * z * w * x[1] - w * w * x[0] * (1.0 + kappa * x[0] * x[0]),
+        ]
+    };
+    let mut y = *x;
+    for s in 0..n {
+        let t = s as f64 * dt;
+        let k1 = f(t, y);
+        let k2 = f(
+            t + dt / 2.0,
+            [y[0] + dt / 2.0 * k1[0], y[1] + dt / 2.0 * k1[1]],
+        );
+        let k3 = f(
+            t + dt / 2.0,
+            [y[0] + dt / 2.0 * k2[0], y[1] + dt / 2.0 * k2[1]],
+        );
+        let k4 = f(t + dt, [y[0] + dt * k3[0], y[1] + dt * k3[1]]);
+        y[0] += dt / 6.0 * (k1[0] + 2.0 * k2[0] + 2.0 * k3[0] + k4[0]);
+        y[1] += dt / 6.0 * (k1[1] + 2.0 * k2[1] + 2.0 * k3[1] + k4[1]);
+    }
+    *x = y;
 }
 
 /// Simulates a sampled force record through a model that may change per sample.

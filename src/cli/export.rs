@@ -40,6 +40,34 @@ pub fn slave_source() -> String {
         .unwrap_or_else(|e| e.to_string())
 }
 
+/// The twin's extensions the FMU carries (cubic stiffness, external vibrations) and those
+/// it leaves out (a measuring-chain delay).
+pub fn extensions_in_fmu(twin: &Twin) -> (Vec<String>, Vec<String>) {
+    let e = &twin.extensions;
+    let mut carried = Vec::new();
+    if !e.cubic.is_empty() {
+        carried.push(format!(
+            "cubic modal stiffness on {} mode(s)",
+            e.cubic.len()
+        ));
+    }
+    if !e.disturbance.is_empty() {
+        carried.push(format!(
+            "external vibration at {} Hz",
+            e.disturbance
+                .iter()
+                .map(|d| format!("{:.1}", d.freq_hz))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ));
+    }
+    let left = e
+        .delay_s
+        .map(|d| vec![format!("response delay {:.3} ms", d * 1e3)])
+        .unwrap_or_default();
+    (carried, left)
+}
+
 /// Runs `mtwin export`.
 pub fn run(a: Args, out: &Output) -> Result<()> {
     super::check_output_not_input(&a.out, std::slice::from_ref(&a.twin))?;
@@ -51,6 +79,26 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
         twin.guid(),
         a.out.display()
     ));
-    out.json(&serde_json::json!({"out": a.out, "guid": twin.guid(), "slave_library": slave}));
+    let (carried, left_out) = extensions_in_fmu(&twin);
+    if !carried.is_empty() {
+        out.say(format!(
+            "  the FMU includes the twin's {}",
+            carried.join(", ")
+        ));
+    }
+    if !left_out.is_empty() {
+        out.say(format!(
+            "  not in the FMU: {} (a delay between force and response channels belongs to the \
+             measuring chain, not to the tool centre point)",
+            left_out.join(", ")
+        ));
+    }
+    out.json(&serde_json::json!({
+        "out": a.out,
+        "guid": twin.guid(),
+        "slave_library": slave,
+        "extensions_in_fmu": carried,
+        "extensions_not_in_fmu": left_out,
+    }));
     Ok(())
 }

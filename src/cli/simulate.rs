@@ -47,7 +47,20 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
         Hold::Zoh
     };
     let forces = force_rows(&ts);
-    let y = simulate_twin(&mut ev, &forces, |i| ts.position_at(i), ts.dt, hold);
+    let y = if twin.extensions.is_empty() {
+        simulate_twin(&mut ev, &forces, |i| ts.position_at(i), ts.dt, hold)
+    } else {
+        // the extended twin of `mtwin diagnose`: delay, external vibration, cubic stiffness
+        out.say("simulating with the twin's extensions (from mtwin diagnose)");
+        identify::extended::simulate_extended(
+            &twin,
+            &forces,
+            |i| ts.position_at(i),
+            ts.t0,
+            ts.dt,
+            hold,
+        )?
+    };
     let mut axes: Vec<identify::axis::Axis> = ev.channels().iter().map(|c| c.output).collect();
     axes.sort();
     axes.dedup();
