@@ -36,7 +36,9 @@
 //!     dropped with a warning. H1 is averaged over the good hits; common record length
 //!     = the shortest hit record (or `nfft`, zero padding when longer).
 //!   - *Continuous* (noise, shaker, operating data): Welch, periodic Hann window,
-//!     50 % overlap; segments are streamed (one segment in memory at a time). `nfft`
+//!     50 % overlap; segments are streamed (one segment in memory at a time), and a
+//!     record too long to hold is streamed from its file by
+//!     [`estimate_frf_streamed`] (module `stream`: same numbers, `O(nfft)` memory). `nfft`
 //!     rule: the largest power of two up to 2¹⁶ that still gives at least
 //!     [`FrfOptions::min_averages`] (8) segments over all records of the estimate. With
 //!     8 averages the random error of H1 at γ² = 0.9 is about 12 %; 2¹⁶ lines give the

@@ -28,7 +28,7 @@ use std::fs::File;
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 
-/// Comment lines a [`RowReader`] keeps (the rest are counted as rows of nothing).
+/// Comment lines a [`RowReader`] keeps (later ones are skipped).
 pub const MAX_COMMENTS: usize = 256;
 
 /// Largest number of samples per force column kept in [`ColumnStats::subsample`].
