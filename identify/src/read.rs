@@ -3,6 +3,9 @@
 //! * Time-series CSV ([`read_timeseries`], [`parse_timeseries`], [`write_timeseries`]):
 //!   `#` comment lines, a header with `t`, forces `fx fy fz`, responses `ax ay az`
 //!   (acceleration) or `dx dy dz` (displacement) and axis positions `x y z`.
+//! * The same time-series CSV row by row in constant memory, for records too long to
+//!   hold ([`RowReader`], [`scan_timeseries`]; module `stream`'s docs say where it
+//!   differs: the typical time step is judged from the first three steps).
 //! * FRF CSV ([`read_frf_csv`], [`write_frf_csv`]): `f_hz` then `<out><in>_re`,
 //!   `<out><in>_im` and optionally `<out><in>_coh` per channel.
 //! * Text FRFs with one Python complex per line, as in the pyuff example data
@@ -22,6 +25,12 @@ use num_complex::Complex64;
 use std::fmt::Write as _;
 use std::path::Path;
 
+mod stream;
+pub(crate) use stream::changed_while_read;
+pub use stream::{
+    scan_timeseries, ColumnStats, RecordEnd, RecordScan, RowReader, MAX_COMMENTS, SUBSAMPLE_CAP,
+};
+
 /// Minimum number of samples of a time-series record.
 pub const MIN_SAMPLES: usize = 16;
 
@@ -33,13 +42,18 @@ fn read_text(path: &Path) -> Result<String> {
     String::from_utf8(bytes).map_err(|e| {
         let pos = e.utf8_error().valid_up_to();
         let line = e.as_bytes()[..pos].iter().filter(|&&b| b == b'\n').count() + 1;
-        Error::bad_file(
-            path,
-            line,
-            None,
-            "the file is not UTF-8 text; save it as plain UTF-8 (or ASCII) CSV",
-        )
+        not_utf8(path, line)
     })
+}
+
+/// Line `line` of `file` is not UTF-8.
+fn not_utf8(file: &Path, line: usize) -> Error {
+    Error::bad_file(
+        file,
+        line,
+        None,
+        "the file is not UTF-8 text; save it as plain UTF-8 (or ASCII) CSV",
+    )
 }
 
 /// Lines of `text` with their 1-based numbers; `\r\n` and `\n` line ends.
@@ -206,78 +220,22 @@ pub fn parse_timeseries_with_warnings(
     let mut lines = numbered_lines(text);
 
     // Header: first line that is neither a comment nor blank.
-    let (header_line, header) = loop {
-        match lines.next() {
-            None => {
-                return Err(Error::bad_file(
-                    file,
-                    0,
-                    None,
-                    "the file has no header and no data; expected a header such as 't,fx,ax' followed by one row per sample",
-                ))
-            }
-            Some((_, l)) if l.trim_start().starts_with('#') => comments.push(comment_text(l)),
-            Some((_, l)) if l.trim().is_empty() => {}
-            Some((n, l)) => break (n, l),
+    let header = loop {
+        let Some((n, l)) = lines.next() else {
+            return Err(no_header(file));
+        };
+        match LineKind::of(l) {
+            LineKind::Comment => comments.push(comment_text(l)),
+            LineKind::Blank => {}
+            LineKind::Content => break Header::parse(n, l, file, &mut warnings)?,
         }
     };
-
-    let names: Vec<&str> = header.split(',').map(str::trim).collect();
-    let mut roles = Vec::with_capacity(names.len());
-    let mut time_col = None;
-    let mut kind: Option<(ResponseKind, &str)> = None;
-    for (i, &name) in names.iter().enumerate() {
-        if names[..i].iter().any(|n| n.eq_ignore_ascii_case(name)) {
-            return Err(Error::bad_file(
-                file,
-                header_line,
-                Some(name),
-                format!("column '{name}' appears twice in the header; keep one of them"),
-            ));
-        }
-        let role = role_of(name);
-        match role {
-            Role::Time => time_col = Some(i),
-            Role::Response(_, k) => match kind {
-                Some((k0, first)) if k0 != k => {
-                    return Err(Error::bad_file(
-                        file,
-                        header_line,
-                        Some(name),
-                        format!("column '{name}' mixes response kinds with '{first}': use either accelerations ax,ay,az or displacements dx,dy,dz in one file"),
-                    ))
-                }
-                None => kind = Some((k, name)),
-                _ => {}
-            },
-            Role::Ignored => warnings.push(format!(
-                "line {header_line}: unknown column '{name}' ignored (known: t, fx, fy, fz, ax, ay, az, dx, dy, dz, x, y, z)"
-            )),
-            _ => {}
-        }
-        roles.push(role);
-    }
-    let Some(time_col) = time_col else {
-        return Err(Error::bad_file(
-            file,
-            header_line,
-            None,
-            "no time column 't' in the header; add a column 't' with the sample times in seconds",
-        ));
-    };
-    if !roles.iter().any(|r| matches!(r, Role::Force(_))) {
-        return Err(Error::bad_file(
-            file,
-            header_line,
-            None,
-            "no force column in the header; add at least one of fx, fy, fz (newtons)",
-        ));
-    }
 
     // Data rows, one column vector per used column.
-    let ncol = names.len();
+    let ncol = header.names.len();
     let est_rows = text.len() / (8 * ncol).max(1);
-    let mut cols: Vec<Vec<f64>> = roles
+    let mut cols: Vec<Vec<f64>> = header
+        .roles
         .iter()
         .map(|r| {
             if *r == Role::Ignored {
@@ -289,28 +247,200 @@ pub fn parse_timeseries_with_warnings(
         .collect();
     let mut row_lines: Vec<usize> = Vec::with_capacity(est_rows);
     for (n, l) in lines {
-        let trimmed = l.trim();
-        if trimmed.is_empty() {
-            continue;
+        match LineKind::of(l) {
+            LineKind::Blank => {}
+            LineKind::Comment => comments.push(comment_text(l)),
+            LineKind::Content => {
+                header.parse_row(l, n, file, |j, v| cols[j].push(v))?;
+                row_lines.push(n);
+            }
         }
-        if trimmed.starts_with('#') {
-            comments.push(comment_text(l));
-            continue;
+    }
+
+    let n = row_lines.len();
+    check_row_count(file, &header, n)?;
+    let t = &cols[header.time_col];
+    let tname = header.time_name();
+    for i in 1..n {
+        if t[i] <= t[i - 1] {
+            return Err(not_increasing(
+                file,
+                tname,
+                (row_lines[i], t[i]),
+                (row_lines[i - 1], t[i - 1]),
+            ));
         }
+    }
+    // Uniform sampling: first against the typical (median) step, which points at the
+    // row where a sample is missing or doubled, then against the mean step (the SPEC
+    // rule), which also catches a slow drift of the rate.
+    let mean = mean_step(file, tname, (t[0], t[n - 1]), n, row_lines[n - 1])?;
+    let mut steps: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
+    let mid = steps.len() / 2;
+    let typical = *steps.select_nth_unstable_by(mid, f64::total_cmp).1;
+    for (reference, kind) in [(typical, StepRef::Typical), (mean, StepRef::Mean)] {
+        for i in 1..n {
+            let step = t[i] - t[i - 1];
+            if off_step(step, reference) {
+                return Err(irregular_step(
+                    file,
+                    row_lines[i],
+                    tname,
+                    step,
+                    reference,
+                    kind,
+                ));
+            }
+        }
+    }
+
+    let mut ts = TimeSeries {
+        source: file.display().to_string(),
+        t0: t[0],
+        dt: mean,
+        response_kind: header.kind,
+        comments,
+        ..TimeSeries::default()
+    };
+    for (role, col) in header.roles.iter().zip(cols) {
+        match *role {
+            Role::Force(a) => ts.force[a.index()] = Some(col),
+            Role::Response(a, _) => ts.response[a.index()] = Some(col),
+            Role::Position(a) => ts.position[a.index()] = Some(col),
+            Role::Time | Role::Ignored => {}
+        }
+    }
+    Ok((ts, warnings))
+}
+
+/// What a line of a time-series CSV is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum LineKind {
+    /// Empty or only whitespace: skipped.
+    Blank,
+    /// Starts with `#` (after whitespace).
+    Comment,
+    /// The header or a data row.
+    Content,
+}
+
+impl LineKind {
+    #[inline]
+    fn of(line: &str) -> Self {
+        let t = line.trim();
+        if t.is_empty() {
+            LineKind::Blank
+        } else if t.starts_with('#') {
+            LineKind::Comment
+        } else {
+            LineKind::Content
+        }
+    }
+}
+
+/// The parsed header of a time-series CSV: column names and what each holds.
+#[derive(Debug, Clone, PartialEq)]
+struct Header {
+    /// 1-based line of the header.
+    line: usize,
+    names: Vec<String>,
+    roles: Vec<Role>,
+    time_col: usize,
+    kind: Option<ResponseKind>,
+}
+
+impl Header {
+    /// Parses the header line `text` (line `line`); unknown columns add a warning.
+    fn parse(line: usize, text: &str, file: &Path, warnings: &mut Vec<String>) -> Result<Header> {
+        let names: Vec<&str> = text.split(',').map(str::trim).collect();
+        let mut roles = Vec::with_capacity(names.len());
+        let mut time_col = None;
+        let mut kind: Option<(ResponseKind, &str)> = None;
+        for (i, &name) in names.iter().enumerate() {
+            if names[..i].iter().any(|n| n.eq_ignore_ascii_case(name)) {
+                return Err(Error::bad_file(
+                    file,
+                    line,
+                    Some(name),
+                    format!("column '{name}' appears twice in the header; keep one of them"),
+                ));
+            }
+            let role = role_of(name);
+            match role {
+                Role::Time => time_col = Some(i),
+                Role::Response(_, k) => match kind {
+                    Some((k0, first)) if k0 != k => {
+                        return Err(Error::bad_file(
+                            file,
+                            line,
+                            Some(name),
+                            format!("column '{name}' mixes response kinds with '{first}': use either accelerations ax,ay,az or displacements dx,dy,dz in one file"),
+                        ))
+                    }
+                    None => kind = Some((k, name)),
+                    _ => {}
+                },
+                Role::Ignored => warnings.push(format!(
+                    "line {line}: unknown column '{name}' ignored (known: t, fx, fy, fz, ax, ay, az, dx, dy, dz, x, y, z)"
+                )),
+                _ => {}
+            }
+            roles.push(role);
+        }
+        let Some(time_col) = time_col else {
+            return Err(Error::bad_file(
+                file,
+                line,
+                None,
+                "no time column 't' in the header; add a column 't' with the sample times in seconds",
+            ));
+        };
+        if !roles.iter().any(|r| matches!(r, Role::Force(_))) {
+            return Err(Error::bad_file(
+                file,
+                line,
+                None,
+                "no force column in the header; add at least one of fx, fy, fz (newtons)",
+            ));
+        }
+        Ok(Header {
+            line,
+            names: names.iter().map(|s| s.to_string()).collect(),
+            roles,
+            time_col,
+            kind: kind.map(|(k, _)| k),
+        })
+    }
+
+    /// Name of the time column as written in the header.
+    fn time_name(&self) -> &str {
+        &self.names[self.time_col]
+    }
+
+    /// Parses data row `l` (line `n`), handing every used column's value to
+    /// `put(column, value)`; ignored columns are not parsed.
+    #[inline]
+    fn parse_row(
+        &self,
+        l: &str,
+        n: usize,
+        file: &Path,
+        mut put: impl FnMut(usize, f64),
+    ) -> Result<()> {
+        let ncol = self.names.len();
         let mut count = 0;
         for (j, cell) in l.split(',').enumerate() {
+            count = j + 1;
             if j >= ncol {
-                count = j + 1;
                 continue;
             }
-            count = j + 1;
-            if roles[j] != Role::Ignored {
+            if self.roles[j] != Role::Ignored {
                 // fast path inline; errors, NaN/Inf and long numbers in parse_cell
                 let v = match fast_f64(cell.trim_ascii()) {
                     Some(v) => v,
-                    None => parse_cell(cell, file, n, names[j])?,
+                    None => parse_cell(cell, file, n, &self.names[j])?,
                 };
-                cols[j].push(v);
+                put(j, v);
             }
         }
         if count != ncol {
@@ -318,17 +448,29 @@ pub fn parse_timeseries_with_warnings(
                 file,
                 n,
                 None,
-                format!("this row has {count} cells but the header (line {header_line}) has {ncol} columns; every row needs exactly one value per column"),
+                format!("this row has {count} cells but the header (line {}) has {ncol} columns; every row needs exactly one value per column", self.line),
             ));
         }
-        row_lines.push(n);
+        Ok(())
     }
+}
 
-    let n = row_lines.len();
+/// The file ended before a header.
+fn no_header(file: &Path) -> Error {
+    Error::bad_file(
+        file,
+        0,
+        None,
+        "the file has no header and no data; expected a header such as 't,fx,ax' followed by one row per sample",
+    )
+}
+
+/// At least [`MIN_SAMPLES`] data rows.
+fn check_row_count(file: &Path, header: &Header, n: usize) -> Result<()> {
     if n == 0 {
         return Err(Error::bad_file(
             file,
-            header_line,
+            header.line,
             None,
             "header only, no data rows; add one row per sample below the header",
         ));
@@ -341,67 +483,80 @@ pub fn parse_timeseries_with_warnings(
             format!("only {n} samples; a record needs at least {MIN_SAMPLES} (measure longer)"),
         ));
     }
+    Ok(())
+}
 
-    let t = &cols[time_col];
-    let tname = names[time_col];
-    for i in 1..n {
-        if t[i] <= t[i - 1] {
-            return Err(Error::bad_file(
-                file,
-                row_lines[i],
-                Some(tname),
-                format!("time {} does not increase (previous row {} at line {}); remove repeated rows and sort by time", t[i], t[i - 1], row_lines[i - 1]),
-            ));
-        }
-    }
-    // Uniform sampling: first against the typical (median) step, which points at the
-    // row where a sample is missing or doubled, then against the mean step (the SPEC
-    // rule), which also catches a slow drift of the rate.
-    let mean = (t[n - 1] - t[0]) / (n - 1) as f64;
+/// Time `t` at line `line` is not after the previous row's time.
+fn not_increasing(file: &Path, tname: &str, (line, t): (usize, f64), prev: (usize, f64)) -> Error {
+    Error::bad_file(
+        file,
+        line,
+        Some(tname),
+        format!(
+            "time {t} does not increase (previous row {} at line {}); remove repeated rows and sort by time",
+            prev.1, prev.0
+        ),
+    )
+}
+
+/// The mean step of `n` samples from `first` to `last` (times), or an error at
+/// `last_line` when it gives no usable sample rate.
+fn mean_step(
+    file: &Path,
+    tname: &str,
+    (first, last): (f64, f64),
+    n: usize,
+    last_line: usize,
+) -> Result<f64> {
+    let mean = (last - first) / (n - 1) as f64;
     // Finite times can still span more than an f64 holds (or step by less than the
     // smallest normal number): no usable sample rate.
     if !(mean.is_finite() && mean > 0.0 && (1.0 / mean).is_finite()) {
         return Err(Error::bad_file(
             file,
-            row_lines[n - 1],
+            last_line,
             Some(tname),
-            format!("the times from {:e} s to {:e} s give no usable sample period (the span or the step is beyond the range of a double); give times in seconds", t[0], t[n - 1]),
+            format!("the times from {first:e} s to {last:e} s give no usable sample period (the span or the step is beyond the range of a double); give times in seconds"),
         ));
     }
-    let mut steps: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
-    let mid = steps.len() / 2;
-    let typical = *steps.select_nth_unstable_by(mid, f64::total_cmp).1;
-    for reference in [typical, mean] {
-        for i in 1..n {
-            let step = t[i] - t[i - 1];
-            if (step - reference).abs() > TIME_STEP_TOLERANCE * reference {
-                return Err(Error::bad_file(
-                    file,
-                    row_lines[i],
-                    Some(tname),
-                    format!("time step {step:e} s differs by more than 1 % from the {} step {reference:e} s; the record must be uniformly sampled (a row is missing or repeated here, or the sampling rate changed)", if reference == typical { "typical" } else { "mean" }),
-                ));
-            }
-        }
-    }
+    Ok(mean)
+}
 
-    let mut ts = TimeSeries {
-        source: file.display().to_string(),
-        t0: t[0],
-        dt: mean,
-        response_kind: kind.map(|(k, _)| k),
-        comments,
-        ..TimeSeries::default()
+/// Which step a time step is compared with.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum StepRef {
+    /// The typical step (median of all steps in memory; of the first three when
+    /// streamed).
+    Typical,
+    /// The mean step `(t_last - t_first) / (n - 1)` (the SPEC rule).
+    Mean,
+}
+
+/// True when `step` is more than [`TIME_STEP_TOLERANCE`] away from `reference`.
+#[inline]
+fn off_step(step: f64, reference: f64) -> bool {
+    (step - reference).abs() > TIME_STEP_TOLERANCE * reference
+}
+
+/// The step ending at line `line` is off the reference step.
+fn irregular_step(
+    file: &Path,
+    line: usize,
+    tname: &str,
+    step: f64,
+    reference: f64,
+    kind: StepRef,
+) -> Error {
+    let which = match kind {
+        StepRef::Typical => "typical",
+        StepRef::Mean => "mean",
     };
-    for (role, col) in roles.iter().zip(cols) {
-        match *role {
-            Role::Force(a) => ts.force[a.index()] = Some(col),
-            Role::Response(a, _) => ts.response[a.index()] = Some(col),
-            Role::Position(a) => ts.position[a.index()] = Some(col),
-            Role::Time | Role::Ignored => {}
-        }
-    }
-    Ok((ts, warnings))
+    Error::bad_file(
+        file,
+        line,
+        Some(tname),
+        format!("time step {step:e} s differs by more than 1 % from the {which} step {reference:e} s; the record must be uniformly sampled (a row is missing or repeated here, or the sampling rate changed)"),
+    )
 }
 
 /// Comment text: the line without its `#` and one following space.

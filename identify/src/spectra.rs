@@ -36,7 +36,9 @@
 //!     dropped with a warning. H1 is averaged over the good hits; common record length
 //!     = the shortest hit record (or `nfft`, zero padding when longer).
 //!   - *Continuous* (noise, shaker, operating data): Welch, periodic Hann window,
-//!     50 % overlap; segments are streamed (one segment in memory at a time). `nfft`
+//!     50 % overlap; segments are streamed (one segment in memory at a time), and a
+//!     record too long to hold is streamed from its file by
+//!     [`estimate_frf_streamed`] (module `stream`: same numbers, `O(nfft)` memory). `nfft`
 //!     rule: the largest power of two up to 2¹⁶ that still gives at least
 //!     [`FrfOptions::min_averages`] (8) segments over all records of the estimate. With
 //!     8 averages the random error of H1 at γ² = 0.9 is about 12 %; 2¹⁶ lines give the
@@ -242,19 +244,37 @@ pub fn estimate_frf(records: &[TimeSeries], opts: &FrfOptions) -> Result<FrfEsti
                 }
             }
         }
-        if r.response_kind.is_none() && !r.response_axes().is_empty() {
-            return Err(Error::BadInput(format!(
-                "{}: response columns without a kind; set response_kind (acceleration or displacement)",
-                r.source
-            )));
-        }
-        if r.response_axes().is_empty() {
-            return Err(Error::BadInput(format!(
-                "{} has no response column; an FRF needs ax/ay/az or dx/dy/dz",
-                r.source
-            )));
-        }
+        check_responses(&r.source, r.response_kind, &r.response_axes())?;
     }
+    check_options(opts)?;
+
+    let infos: Vec<RecordInfo> = records.iter().map(RecordInfo::new).collect::<Result<_>>()?;
+    let excitation = resolve_excitation(opts.excitation, &infos)?;
+    let mut ctx = Ctx::new(dt, opts);
+    match excitation {
+        Excitation::Impact => impact::estimate(records, &infos, &mut ctx),
+        Excitation::Continuous => continuous(records, &infos, &mut ctx),
+        _ => chirp(records, &infos, &mut ctx),
+    }
+}
+
+/// Response columns must exist and have a kind.
+fn check_responses(source: &str, kind: Option<ResponseKind>, axes: &[Axis]) -> Result<()> {
+    if kind.is_none() && !axes.is_empty() {
+        return Err(Error::BadInput(format!(
+            "{source}: response columns without a kind; set response_kind (acceleration or displacement)"
+        )));
+    }
+    if axes.is_empty() {
+        return Err(Error::BadInput(format!(
+            "{source} has no response column; an FRF needs ax/ay/az or dx/dy/dz"
+        )));
+    }
+    Ok(())
+}
+
+/// Overlap and DFT length in range.
+fn check_options(opts: &FrfOptions) -> Result<()> {
     if !(0.0..0.95).contains(&opts.overlap) {
         return Err(Error::BadInput(format!(
             "overlap {} must be in [0, 0.95)",
@@ -268,14 +288,16 @@ pub fn estimate_frf(records: &[TimeSeries], opts: &FrfOptions) -> Result<FrfEsti
             )));
         }
     }
+    Ok(())
+}
 
-    let infos: Vec<RecordInfo> = records.iter().map(RecordInfo::new).collect::<Result<_>>()?;
-    let excitation = match opts.excitation {
+/// The excitation of the records: `Auto` becomes impact or continuous (module docs).
+fn resolve_excitation(requested: Excitation, infos: &[RecordInfo]) -> Result<Excitation> {
+    Ok(match requested {
         Excitation::Auto => {
-            let impulsive: Vec<bool> = infos.iter().map(|i| i.impulsive).collect();
-            if impulsive.iter().all(|&b| b) {
+            if infos.iter().all(|i| i.impulsive) {
                 Excitation::Impact
-            } else if impulsive.iter().all(|&b| !b) {
+            } else if infos.iter().all(|i| !i.impulsive) {
                 Excitation::Continuous
             } else {
                 return Err(Error::BadInput(
@@ -284,19 +306,7 @@ pub fn estimate_frf(records: &[TimeSeries], opts: &FrfOptions) -> Result<FrfEsti
             }
         }
         e => e,
-    };
-    let mut ctx = Ctx {
-        dt,
-        opts,
-        warnings: Vec::new(),
-        dropped: Vec::new(),
-        planner: RealFftPlanner::new(),
-    };
-    match excitation {
-        Excitation::Impact => impact::estimate(records, &infos, &mut ctx),
-        Excitation::Continuous => continuous(records, &infos, &mut ctx),
-        _ => chirp(records, &infos, &mut ctx),
-    }
+    })
 }
 
 /// Per-record facts used by every path.
@@ -316,11 +326,26 @@ impl RecordInfo {
             let m = f.iter().sum::<f64>() / n;
             rms[a.index()] = (f.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / n).sqrt();
         }
+        Self::from_stats(&r.source, rms, r.response_axes(), |a| {
+            let f = r.force(a).unwrap_or(&[]);
+            let lo = f.iter().copied().fold(f64::INFINITY, f64::min);
+            let hi = f.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            impulsive(f, (lo, hi))
+        })
+    }
+
+    /// From per-axis force RMS values (0 = no column), the response axes and a test of
+    /// the strongest force axis for impulsiveness.
+    fn from_stats(
+        source: &str,
+        rms: [f64; 3],
+        outputs: Vec<Axis>,
+        impulsive_along: impl FnOnce(Axis) -> bool,
+    ) -> Result<Self> {
         let max = rms.iter().cloned().fold(0.0, f64::max);
         if max <= 0.0 {
             return Err(Error::BadInput(format!(
-                "{}: the force is zero (or constant) in every column; nothing excites the structure",
-                r.source
+                "{source}: the force is zero (or constant) in every column; nothing excites the structure"
             )));
         }
         let strongest = Axis::ALL
@@ -331,18 +356,26 @@ impl RecordInfo {
             .into_iter()
             .filter(|a| rms[a.index()] >= INPUT_RMS_FRACTION * max)
             .collect();
-        let f = r.force(strongest).unwrap_or(&[]);
-        let base = median(f);
-        let peak = f.iter().map(|v| (v - base).abs()).fold(0.0, f64::max);
-        let above = f.iter().filter(|v| (*v - base).abs() > 0.2 * peak).count();
-        let impulsive = (above as f64) < 0.02 * f.len() as f64;
         Ok(RecordInfo {
             inputs,
             strongest,
-            impulsive,
-            outputs: r.response_axes(),
+            impulsive: impulsive_along(strongest),
+            outputs,
         })
     }
+}
+
+/// True when fewer than 2 % of `samples` deviate from their median by more than 20 % of
+/// the largest deviation, which is taken from the extremes `(min, max)` of the whole
+/// force (`samples` may be a subsample of it).
+fn impulsive(samples: &[f64], (lo, hi): (f64, f64)) -> bool {
+    let base = median(samples);
+    let peak = (hi - base).abs().max((lo - base).abs());
+    let above = samples
+        .iter()
+        .filter(|v| (*v - base).abs() > 0.2 * peak)
+        .count();
+    (above as f64) < 0.02 * samples.len() as f64
 }
 
 fn median(v: &[f64]) -> f64 {
@@ -361,6 +394,18 @@ struct Ctx<'a> {
     warnings: Vec<String>,
     dropped: Vec<String>,
     planner: RealFftPlanner<f64>,
+}
+
+impl<'a> Ctx<'a> {
+    fn new(dt: f64, opts: &'a FrfOptions) -> Self {
+        Ctx {
+            dt,
+            opts,
+            warnings: Vec::new(),
+            dropped: Vec::new(),
+            planner: RealFftPlanner::new(),
+        }
+    }
 }
 
 /// A real-input DFT of fixed length with its buffers (planned once).
@@ -763,69 +808,94 @@ fn welch_nfft(lens: &[usize], opts: &FrfOptions) -> Option<usize> {
         .or_else(|| (5..=16).rev().map(|p| 1usize << p).find(|&l| segs(l) >= 1))
 }
 
-/// Streams records segment by segment into per-group accumulators.
-fn continuous(records: &[TimeSeries], infos: &[RecordInfo], ctx: &mut Ctx) -> Result<FrfEstimate> {
-    let lens: Vec<usize> = records.iter().map(TimeSeries::len).collect();
-    let n = match ctx.opts.nfft {
-        Some(n) => n,
-        None => welch_nfft(&lens, ctx.opts).ok_or_else(|| {
+/// Welch segment length for records of `lens` samples: `opts.nfft` or the rule.
+fn welch_length(lens: &[usize], opts: &FrfOptions) -> Result<usize> {
+    match opts.nfft {
+        Some(n) => Ok(n),
+        None => welch_nfft(lens, opts).ok_or_else(|| {
             Error::BadInput(format!(
                 "records too short for Welch averaging (longest {} samples, need at least 32)",
                 lens.iter().max().copied().unwrap_or(0)
             ))
-        })?,
-    };
-    let window = hann(n);
-    let mut dft = RealDft::new(&mut ctx.planner, n);
-    let nl = n_lines(n);
-    let mut accs = Vec::new();
-    for (inputs, outputs, members) in groups(infos, &mut ctx.warnings) {
-        let mut acc = Accumulator::new(inputs.clone(), outputs.clone(), nl);
-        let mut fs = vec![vec![Complex64::default(); nl]; inputs.len()];
-        let mut ys = vec![vec![Complex64::default(); nl]; outputs.len()];
-        for &r in &members {
-            let rec = &records[r];
-            let conv = to_displacement(rec.response_kind, n, ctx.dt, 0.0);
-            let (hop, count) = welch_segments(rec.len(), n, ctx.opts.overlap);
-            if count == 0 {
-                ctx.dropped.push(format!(
-                    "{}: {} samples, shorter than one segment of {n}; not used",
-                    rec.source,
-                    rec.len()
-                ));
-                continue;
-            }
-            for s in 0..count {
-                let start = s * hop;
-                for (i, &a) in inputs.iter().enumerate() {
-                    let x = &rec.force(a).unwrap_or(&[])[start..start + n];
-                    fill_windowed(&mut dft.buf, x, &window);
-                    dft.run_into(&mut fs[i], None)?;
-                }
-                for (o, &a) in outputs.iter().enumerate() {
-                    let x = &rec.response(a).unwrap_or(&[])[start..start + n];
-                    fill_windowed(&mut dft.buf, x, &window);
-                    dft.run_into(&mut ys[o], Some(&conv))?;
-                }
-                acc.add(&fs, &ys);
-            }
-        }
-        if acc.averages == 0 {
-            return Err(Error::BadInput(format!(
-                "no record excited along {} is longer than the segment length {n}; use longer records or a smaller nfft",
-                axes_name(&inputs)
-            )));
-        }
-        if acc.averages < ctx.opts.min_averages {
-            ctx.warnings.push(format!(
-                "excitation along {}: only {} Welch averages (aim for at least {}); the estimate is noisy, measure longer",
-                axes_name(&inputs),
-                acc.averages,
-                ctx.opts.min_averages
-            ));
-        }
-        accs.push(acc);
+        }),
     }
+}
+
+/// The Welch core shared by the in-memory and the streamed estimate: window, planned
+/// DFT and the spectra of one segment.
+struct Welch {
+    n: usize,
+    window: Vec<f64>,
+    dft: RealDft,
+    fs: Vec<Vec<Complex64>>,
+    ys: Vec<Vec<Complex64>>,
+}
+
+impl Welch {
+    fn new(planner: &mut RealFftPlanner<f64>, n: usize) -> Self {
+        Welch {
+            n,
+            window: hann(n),
+            dft: RealDft::new(planner, n),
+            fs: Vec::new(),
+            ys: Vec::new(),
+        }
+    }
+
+    /// Windows and transforms one segment (`n` samples) of every input force and output
+    /// response, in the accumulator's order, and adds its spectra to `acc`; `conv` turns
+    /// response spectra into displacement ([`to_displacement`]).
+    fn add_segment<'x>(
+        &mut self,
+        acc: &mut Accumulator,
+        conv: &[Complex64],
+        forces: impl ExactSizeIterator<Item = &'x [f64]>,
+        responses: impl ExactSizeIterator<Item = &'x [f64]>,
+    ) -> Result<()> {
+        let nl = n_lines(self.n);
+        self.fs
+            .resize_with(forces.len(), || vec![Complex64::default(); nl]);
+        self.ys
+            .resize_with(responses.len(), || vec![Complex64::default(); nl]);
+        for (x, f) in forces.zip(self.fs.iter_mut()) {
+            fill_windowed(&mut self.dft.buf, x, &self.window);
+            self.dft.run_into(f, None)?;
+        }
+        for (x, y) in responses.zip(self.ys.iter_mut()) {
+            fill_windowed(&mut self.dft.buf, x, &self.window);
+            self.dft.run_into(y, Some(conv))?;
+        }
+        acc.add(&self.fs, &self.ys);
+        Ok(())
+    }
+}
+
+/// A record shorter than one Welch segment (listed in [`FrfEstimate::hits_dropped`]).
+fn too_short_for_segment(source: &str, len: usize, n: usize) -> String {
+    format!("{source}: {len} samples, shorter than one segment of {n}; not used")
+}
+
+/// Checks a group's Welch averages: none is an error, few a warning.
+fn check_averages(acc: &Accumulator, n: usize, ctx: &mut Ctx) -> Result<()> {
+    if acc.averages == 0 {
+        return Err(Error::BadInput(format!(
+            "no record excited along {} is longer than the segment length {n}; use longer records or a smaller nfft",
+            axes_name(&acc.inputs)
+        )));
+    }
+    if acc.averages < ctx.opts.min_averages {
+        ctx.warnings.push(format!(
+            "excitation along {}: only {} Welch averages (aim for at least {}); the estimate is noisy, measure longer",
+            axes_name(&acc.inputs),
+            acc.averages,
+            ctx.opts.min_averages
+        ));
+    }
+    Ok(())
+}
+
+/// The Welch estimate from its accumulators.
+fn welch_estimate(accs: Vec<Accumulator>, n: usize, ctx: &mut Ctx) -> Result<FrfEstimate> {
     let df = 1.0 / (n as f64 * ctx.dt);
     let method = format!(
         "{:?}, Welch: Hann window, nfft {n}, {:.0} % overlap, df {df:.4} Hz",
@@ -833,6 +903,44 @@ fn continuous(records: &[TimeSeries], infos: &[RecordInfo], ctx: &mut Ctx) -> Re
         ctx.opts.overlap * 100.0
     );
     assemble(accs, n, ctx, method, None)
+}
+
+/// Streams records segment by segment into per-group accumulators.
+fn continuous(records: &[TimeSeries], infos: &[RecordInfo], ctx: &mut Ctx) -> Result<FrfEstimate> {
+    let lens: Vec<usize> = records.iter().map(TimeSeries::len).collect();
+    let n = welch_length(&lens, ctx.opts)?;
+    let mut welch = Welch::new(&mut ctx.planner, n);
+    let nl = n_lines(n);
+    let mut accs = Vec::new();
+    for (inputs, outputs, members) in groups(infos, &mut ctx.warnings) {
+        let mut acc = Accumulator::new(inputs.clone(), outputs.clone(), nl);
+        for &r in &members {
+            let rec = &records[r];
+            let conv = to_displacement(rec.response_kind, n, ctx.dt, 0.0);
+            let (hop, count) = welch_segments(rec.len(), n, ctx.opts.overlap);
+            if count == 0 {
+                ctx.dropped
+                    .push(too_short_for_segment(&rec.source, rec.len(), n));
+                continue;
+            }
+            for s in 0..count {
+                let seg = s * hop..s * hop + n;
+                welch.add_segment(
+                    &mut acc,
+                    &conv,
+                    inputs
+                        .iter()
+                        .map(|&a| &rec.force(a).unwrap_or(&[])[seg.clone()]),
+                    outputs
+                        .iter()
+                        .map(|&a| &rec.response(a).unwrap_or(&[])[seg.clone()]),
+                )?;
+            }
+        }
+        check_averages(&acc, n, ctx)?;
+        accs.push(acc);
+    }
+    welch_estimate(accs, n, ctx)
 }
 
 fn fill_windowed(buf: &mut [f64], x: &[f64], w: &[f64]) {
@@ -900,6 +1008,8 @@ fn chirp(records: &[TimeSeries], infos: &[RecordInfo], ctx: &mut Ctx) -> Result<
 }
 
 mod impact;
+mod stream;
+pub use stream::{estimate_frf_streamed, excitation_of_scan};
 
 #[cfg(test)]
 mod tests {

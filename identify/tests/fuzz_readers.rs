@@ -5,6 +5,11 @@
 //! Property for every reader: it never panics; it returns `Ok` or `Err`; an `Ok` result
 //! holds only finite numbers (and a twin passes `validate`); an `Err` names the file.
 //!
+//! The streamed time-series reader (`scan_timeseries`) agrees with the in-memory one on
+//! the same bytes: both read the file (same rows, start and step) or both fail with the
+//! same message — except where their typical time step differs by design (median of the
+//! first three steps when streamed, of all steps in memory).
+//!
 //! The default case count is small so `cargo test` stays fast; `PROPTEST_CASES=N` raises
 //! it (`scripts/fuzz.sh` does). Fixed inputs that once failed are regression tests at
 //! the end of the file.
@@ -12,7 +17,10 @@
 use identify::axis::{Axis, Channel};
 use identify::frf::{Frf, FrfChannel};
 use identify::interpolate::TwinEvaluator;
-use identify::read::{format_frf_csv, format_timeseries, parse_frf_csv, parse_timeseries};
+use identify::read::{
+    format_frf_csv, format_timeseries, parse_frf_csv, parse_timeseries, read_timeseries,
+    scan_timeseries,
+};
 use identify::timeseries::{ResponseKind, TimeSeries};
 use identify::twin::Twin;
 use identify::uff::{
@@ -102,6 +110,44 @@ fn check_timeseries(r: &identify::Result<TimeSeries>) -> Result<(), String> {
         return Err("no force column in an Ok record".into());
     }
     Ok(())
+}
+
+/// A time-step error (the typical step differs between the two readers by design).
+fn is_step_error(e: &identify::Error) -> bool {
+    e.to_string().contains("differs by more than 1 % from the")
+}
+
+/// `bytes` as a file read by both time-series readers: see the module docs.
+fn check_stream_agrees(bytes: &[u8]) -> Result<(), String> {
+    let dir = tempfile::tempdir().map_err(|e| e.to_string())?;
+    let p = dir.path().join("inpüt.dat");
+    std::fs::write(&p, bytes).map_err(|e| e.to_string())?;
+    match (read_timeseries(&p), scan_timeseries(&p)) {
+        (Ok(ts), Ok(scan)) => {
+            if (ts.len(), ts.t0.to_bits(), ts.dt.to_bits())
+                != (scan.rows, scan.t0.to_bits(), scan.dt.to_bits())
+            {
+                return Err(format!(
+                    "in memory {} rows t0 {} dt {}, streamed {} rows t0 {} dt {}",
+                    ts.len(),
+                    ts.t0,
+                    ts.dt,
+                    scan.rows,
+                    scan.t0,
+                    scan.dt
+                ));
+            }
+            Ok(())
+        }
+        (Err(a), Err(b)) if a.to_string() == b.to_string() => Ok(()),
+        (Err(a), Err(b)) if is_step_error(&a) && is_step_error(&b) => Ok(()),
+        (Err(e), Ok(_)) | (Ok(_), Err(e)) if is_step_error(&e) => Ok(()),
+        (a, b) => Err(format!(
+            "in memory: {:?}\nstreamed: {:?}",
+            a.map(|t| t.len()),
+            b.map(|s| s.rows)
+        )),
+    }
 }
 
 fn check_frf_value(frf: &Frf) -> Result<(), String> {
@@ -444,6 +490,9 @@ proptest! {
         t.push_str(&lossy(&bytes));
         let r = parse_timeseries(&t, path());
         prop_assert!(check_timeseries(&r).is_ok(), "{:?}", check_timeseries(&r));
+        let raw = [&b"t,fx,ay,x\n"[..], &bytes].concat();
+        let c = check_stream_agrees(&raw);
+        prop_assert!(c.is_ok(), "{:?}", c);
     }
 
     #[test]
@@ -458,6 +507,8 @@ proptest! {
         let bad = apply(good.into_bytes(), &muts);
         let r = parse_timeseries(&lossy(&bad), path());
         let c = check_timeseries(&r);
+        prop_assert!(c.is_ok(), "{:?}\ninput:\n{}", c, lossy(&bad));
+        let c = check_stream_agrees(&bad);
         prop_assert!(c.is_ok(), "{:?}\ninput:\n{}", c, lossy(&bad));
     }
 

@@ -2,8 +2,16 @@
 
 use super::{check_output_not_input, read_series, Output};
 use anyhow::{Context, Result};
-use identify::spectra::{estimate_frf, Estimator, Excitation, FrfOptions};
-use std::path::PathBuf;
+use identify::spectra::{
+    estimate_frf, estimate_frf_streamed, excitation_of_scan, Estimator, Excitation, FrfEstimate,
+    FrfOptions,
+};
+use std::path::{Path, PathBuf};
+
+/// A single time-series file at least this large is streamed (when its excitation is
+/// continuous) instead of read into memory: above it the in-memory record would hold
+/// tens of MB.
+pub const STREAM_MIN_BYTES: u64 = 8 << 20;
 
 /// Arguments of `mtwin frf`.
 #[derive(Debug, clap::Args)]
@@ -28,6 +36,65 @@ pub struct Args {
     /// Segment length for Welch averaging (default: chosen from the record).
     #[arg(long)]
     pub nfft: Option<usize>,
+    /// Stream a single continuous-excitation file (two passes over the file, memory
+    /// independent of the record length) whatever its size; by default only files of
+    /// 8 MiB or more are streamed. Impact and chirp records are always read into memory.
+    #[arg(long, conflicts_with = "in_memory")]
+    pub stream: bool,
+    /// Read the record into memory even when it would be streamed (the estimate is the
+    /// same; for comparison).
+    #[arg(long)]
+    pub in_memory: bool,
+}
+
+/// How the records were read.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Reading {
+    InMemory,
+    Streamed { rows: usize },
+}
+
+impl Reading {
+    fn name(self) -> &'static str {
+        match self {
+            Reading::InMemory => "in_memory",
+            Reading::Streamed { .. } => "streamed",
+        }
+    }
+}
+
+/// The one file to stream, if the arguments allow streaming and ask for it (flag or
+/// size); the excitation is checked after the file's first pass.
+fn stream_candidate<'a>(a: &'a Args, opts: &FrfOptions) -> Option<&'a Path> {
+    let [file] = a.files.as_slice() else {
+        return None;
+    };
+    if a.in_memory || matches!(opts.excitation, Excitation::Impact | Excitation::Chirp) {
+        return None;
+    }
+    let big = std::fs::metadata(file).is_ok_and(|m| m.len() >= STREAM_MIN_BYTES);
+    (a.stream || big).then_some(file.as_path())
+}
+
+/// The estimate, streamed when possible (see [`stream_candidate`]), else in memory.
+fn estimate(a: &Args, opts: &FrfOptions, out: &Output) -> Result<(FrfEstimate, Reading)> {
+    if let Some(file) = stream_candidate(a, opts) {
+        let scan = identify::read::scan_timeseries(file)?;
+        if excitation_of_scan(&scan, opts).context("FRF estimation")? == Excitation::Continuous {
+            for w in &scan.warnings {
+                out.say(format!("warning: {}: {w}", file.display()));
+            }
+            let est = estimate_frf_streamed(&scan, opts).context("FRF estimation")?;
+            return Ok((est, Reading::Streamed { rows: scan.rows }));
+        }
+        out.say(format!(
+            "{}: not continuous excitation, read into memory",
+            file.display()
+        ));
+    }
+    let series = read_series(&a.files, out)?;
+    let est = estimate_frf(&series, opts).context("FRF estimation")?;
+    Ok((est, Reading::InMemory))
 }
 
 /// FRF options from the command line.
@@ -52,9 +119,14 @@ pub fn frf_options(estimator: &str, excitation: &str, nfft: Option<usize>) -> Fr
 /// Runs `mtwin frf`.
 pub fn run(a: Args, out: &Output) -> Result<()> {
     check_output_not_input(&a.out, &a.files)?;
-    let series = read_series(&a.files, out)?;
     let opts = frf_options(&a.estimator, &a.excitation, a.nfft);
-    let est = estimate_frf(&series, &opts).context("FRF estimation")?;
+    let (est, reading) = estimate(&a, &opts, out)?;
+    if let Reading::Streamed { rows } = reading {
+        out.say(format!(
+            "streamed {rows} rows from {} (two passes, memory independent of the record length)",
+            a.files[0].display()
+        ));
+    }
     for w in &est.warnings {
         out.say(format!("warning: {w}"));
     }
@@ -87,7 +159,7 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
     out.json(&serde_json::json!({
         "out": a.out, "method": est.method, "df_hz": est.df_hz, "hits_used": est.hits_used,
         "hits_dropped": est.hits_dropped, "warnings": est.warnings, "channels": chans,
-        "exp_window_sigma": est.exp_window_sigma,
+        "exp_window_sigma": est.exp_window_sigma, "reading": reading.name(),
     }));
     Ok(())
 }

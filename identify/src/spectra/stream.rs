@@ -1,0 +1,116 @@
+//! The Welch estimate of one long record streamed from its file: memory stays
+//! `O(nfft × channels)` however long the record is.
+//!
+//! Two passes over the file: [`scan_timeseries`](crate::read::scan_timeseries) checks
+//! it and counts the rows (the automatic `nfft` and the sample period depend on the whole
+//! record), then [`estimate_frf_streamed`] reads the rows again into one ring of `nfft`
+//! samples per channel and hands every full segment to the same Welch core as
+//! [`estimate_frf`](super::estimate_frf). The result equals the in-memory estimate of the
+//! same file bit for bit (same segments, same order of accumulation).
+//!
+//! Only continuous excitation streams. Whether a record under [`Excitation::Auto`] is an
+//! impact test is judged on a systematic subsample of its strongest force
+//! ([`ColumnStats::subsample`](crate::read::ColumnStats::subsample), the whole column
+//! up to 65 536 samples) against the exact extremes; records that short are judged
+//! exactly as in memory.
+
+use super::{
+    check_averages, check_options, check_responses, groups, impulsive, n_lines, resolve_excitation,
+    to_displacement, too_short_for_segment, welch_estimate, welch_length, welch_segments,
+    Accumulator, Ctx, Excitation, FrfEstimate, FrfOptions, RecordInfo, Welch,
+};
+use crate::error::{Error, Result};
+use crate::read::{RecordScan, RowReader};
+
+impl RecordInfo {
+    fn from_scan(scan: &RecordScan) -> Result<Self> {
+        let rms = scan
+            .force
+            .each_ref()
+            .map(|c| c.as_ref().map_or(0.0, |c| c.rms));
+        Self::from_stats(&source(scan), rms, scan.response_axes(), |a| {
+            scan.force[a.index()]
+                .as_ref()
+                .is_some_and(|c| impulsive(&c.subsample, (c.min, c.max)))
+        })
+    }
+}
+
+fn source(scan: &RecordScan) -> String {
+    scan.source.display().to_string()
+}
+
+/// The excitation [`estimate_frf`](super::estimate_frf) would use for this record:
+/// `opts.excitation`, or for [`Excitation::Auto`] impact or continuous (module docs).
+/// Only [`Excitation::Continuous`] can be streamed.
+pub fn excitation_of_scan(scan: &RecordScan, opts: &FrfOptions) -> Result<Excitation> {
+    check_responses(&source(scan), scan.response_kind, &scan.response_axes())?;
+    resolve_excitation(opts.excitation, &[RecordInfo::from_scan(scan)?])
+}
+
+/// Welch FRF estimate of the record `scan` describes, read again row by row (module
+/// docs). Fails with [`Error::BadInput`] unless the excitation is continuous (see
+/// [`excitation_of_scan`]), and with [`Error::BadFile`] when the file no longer matches
+/// its scan.
+pub fn estimate_frf_streamed(scan: &RecordScan, opts: &FrfOptions) -> Result<FrfEstimate> {
+    check_options(opts)?;
+    let excitation = excitation_of_scan(scan, opts)?;
+    if excitation != Excitation::Continuous {
+        return Err(Error::BadInput(format!(
+            "{}: {excitation:?} excitation is not estimated streamed (only continuous excitation is); read the record into memory",
+            source(scan)
+        )));
+    }
+    let info = RecordInfo::from_scan(scan)?;
+    let mut ctx = Ctx::new(scan.dt, opts);
+    let n = welch_length(&[scan.rows], opts)?;
+    let mut welch = Welch::new(&mut ctx.planner, n);
+    let mut accs = Vec::new();
+    for (inputs, outputs, _) in groups(std::slice::from_ref(&info), &mut ctx.warnings) {
+        let mut acc = Accumulator::new(inputs.clone(), outputs.clone(), n_lines(n));
+        let (hop, count) = welch_segments(scan.rows, n, opts.overlap);
+        if count == 0 {
+            ctx.dropped
+                .push(too_short_for_segment(&source(scan), scan.rows, n));
+        } else {
+            let conv = to_displacement(scan.response_kind, n, scan.dt, 0.0);
+            let mut reader = RowReader::open(&scan.source)?;
+            let columns: Vec<usize> = inputs
+                .iter()
+                .map(|&a| reader.force_column(a))
+                .chain(outputs.iter().map(|&a| reader.response_column(a)))
+                .collect::<Option<_>>()
+                .ok_or_else(|| crate::read::changed_while_read(&scan.source))?;
+            let ni = inputs.len();
+            // One ring per channel: the last `n` samples, `hop` dropped after each segment.
+            let mut rings: Vec<Vec<f64>> = columns.iter().map(|_| Vec::with_capacity(n)).collect();
+            let mut done = 0;
+            while let Some(row) = reader.next_row()? {
+                for (ring, &c) in rings.iter_mut().zip(&columns) {
+                    ring.push(row[c]);
+                }
+                if rings[0].len() == n {
+                    if done < count {
+                        welch.add_segment(
+                            &mut acc,
+                            &conv,
+                            rings[..ni].iter().map(Vec::as_slice),
+                            rings[ni..].iter().map(Vec::as_slice),
+                        )?;
+                        done += 1;
+                    }
+                    for ring in &mut rings {
+                        ring.drain(..hop);
+                    }
+                }
+            }
+            let end = reader.finish()?;
+            if end.rows != scan.rows || end.dt != scan.dt || done != count {
+                return Err(crate::read::changed_while_read(&scan.source));
+            }
+        }
+        check_averages(&acc, n, &mut ctx)?;
+        accs.push(acc);
+    }
+    welch_estimate(accs, n, &mut ctx)
+}
