@@ -271,7 +271,19 @@ fn case_d(dir: &Path, machine: &ModalMachine) -> Res<Value> {
         );
         let tp = dir.join(format!("d_truth{i:02}.csv"));
         write_frf_csv(&tp, &truth)?;
-        worst = worst.min(worst_fit(&pm.model, &truth, MACHINE_BAND));
+        let fit = worst_fit(&pm.model, &truth, MACHINE_BAND);
+        if std::env::var_os("MTWIN_BENCH_VERBOSE").is_some() {
+            eprintln!(
+                "pose {i} {p:?}: fit {fit:.2} %, {} modes {:?}",
+                pm.model.modes.len(),
+                pm.model
+                    .modes
+                    .iter()
+                    .map(|m| (m.freq_hz() * 10.0).round() / 10.0)
+                    .collect::<Vec<_>>()
+            );
+        }
+        worst = worst.min(fit);
         let nat: Vec<f64> = (0..machine.modes.len())
             .map(|k| machine.mode_at(k, *p).freq_hz())
             .collect();

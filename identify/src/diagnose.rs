@@ -714,8 +714,9 @@ fn cand_pose_dependence(
 /// frequency and damping refitted on the low-force and on the high-force records; the mode
 /// that moves most with the force level names the nonlinearity (frequency up = hardening,
 /// down = softening, damping down with little frequency change = friction). The extension
-/// is the twin linearised at the high force level (the mode retuned there); the FMU and
-/// `simulate` have no amplitude-dependent term.
+/// is a cubic modal stiffness on that mode ([`fit_cubic`]; `simulate` and the FMU carry
+/// it) when it explains both force levels better than the linear twin, else (and for
+/// friction) the twin linearised at the high force level.
 fn cand_nonlinearity(
     twin: &Twin,
     parts: &[TimeSeries],
@@ -799,12 +800,32 @@ fn cand_nonlinearity(
     } else {
         "softening"
     };
-    let ext = map_models(twin, |m| {
-        let mut m = m.clone();
-        crate::modal_update::apply_change(&mut m, &m0, &high, 1.0);
-        m
-    });
     let mut d = Map::new();
+    // the extension: a cubic modal stiffness when it explains both force levels better than
+    // the linear twin does, else the twin linearised at the high force level
+    let cubic = if kind == "friction" {
+        None
+    } else {
+        fit_cubic(twin, &m0, k, df, &high_recs, parts)
+    };
+    let ext = match cubic {
+        Some((t, kappa, fit_lin, fit_cubic)) => {
+            d.insert("kappa".into(), json!(kappa));
+            d.insert(
+                "extension".into(),
+                json!(format!(
+                    "cubic modal stiffness on mode {k}: q'' + 2 zeta w q' + w^2 q (1 + kappa q^2) = F, \
+                     kappa = {kappa:.4e} (in mtwin simulate and the FMU); build-data fit {fit_lin:.2} % -> {fit_cubic:.2} %"
+                )),
+            );
+            t
+        }
+        None => map_models(twin, |m| {
+            let mut m = m.clone();
+            crate::modal_update::apply_change(&mut m, &m0, &high, 1.0);
+            m
+        }),
+    };
     d.insert("freq_hz".into(), json!(m0.modes[k].freq_hz()));
     d.insert("kind".into(), json!(kind));
     d.insert("mode".into(), json!(k));
@@ -820,6 +841,89 @@ fn cand_nonlinearity(
         twin: ext,
         details: d,
     })
+}
+
+/// Cubic modal stiffness κ on mode `k` (sign from the frequency move `df` under hard
+/// hits): started from the backbone `ω_eff² = ω² (1 + ¾ κ A²)` at the largest modal
+/// amplitude `A` the hard records reach, then a golden-section search over κ (κ0/3 to
+/// 100 κ0) for the best time fit on all build records (light and hard). Returns the
+/// extended twin, κ and the build fits of the linear and the cubic twin, when the cubic
+/// term gains.
+fn fit_cubic(
+    twin: &Twin,
+    m0: &ModalModel,
+    k: usize,
+    df: f64,
+    high: &[TimeSeries],
+    build: &[TimeSeries],
+) -> Option<(Twin, f64, f64, f64)> {
+    use crate::simulate::Simulator;
+    // largest modal amplitude of mode k under the hard hits (linear simulation)
+    let mut amp: f64 = 0.0;
+    for ts in high {
+        let f = force_rows(ts);
+        let mut sim = Simulator::new(m0.modes.len(), Hold::Foh);
+        for i in 1..f.len() {
+            sim.step(m0, &f[i - 1], &f[i], ts.dt);
+            for j in 0..3 {
+                amp = amp.max(sim.state()[k * 3 + j][0].abs());
+            }
+        }
+    }
+    if !(amp > 0.0 && amp.is_finite()) {
+        return None;
+    }
+    let kappa0 = ((1.0 + df).powi(2) - 1.0) / (0.75 * amp * amp);
+    if !kappa0.is_finite() || kappa0 == 0.0 {
+        return None;
+    }
+    let splits: Vec<Split> = build
+        .iter()
+        .map(|t| Split {
+            full: t.clone(),
+            holdout_start: 0,
+        })
+        .collect();
+    let with = |kappa: f64| {
+        let mut t = twin.clone();
+        t.extensions.cubic.retain(|c| c.mode != k);
+        t.extensions
+            .cubic
+            .push(crate::twin::CubicStiffness { mode: k, kappa });
+        t
+    };
+    let fit_of =
+        |x: f64| holdout_fit(&with(kappa0 * x.exp()), &splits).unwrap_or(f64::NEG_INFINITY);
+    let fit_lin = holdout_fit(twin, &splits).ok()?;
+    // golden section on ln(κ/κ0) in [−ln 3, ln 100]: the measured shift averages the
+    // decaying amplitude of the hits while A is their largest, so κ0 is low
+    let g = 0.5 * (5f64.sqrt() - 1.0);
+    let (mut a, mut b) = (-(3f64.ln()), 100f64.ln());
+    let (mut c, mut e) = (b - g * (b - a), a + g * (b - a));
+    let (mut fc, mut fe) = (fit_of(c), fit_of(e));
+    for _ in 0..16 {
+        if fc > fe {
+            b = e;
+            e = c;
+            fe = fc;
+            c = b - g * (b - a);
+            fc = fit_of(c);
+        } else {
+            a = c;
+            c = e;
+            fc = fe;
+            e = a + g * (b - a);
+            fe = fit_of(e);
+        }
+    }
+    let (x, best) = if fc > fe { (c, fc) } else { (e, fe) };
+    if std::env::var_os("MTWIN_DEBUG_DIAGNOSE").is_some() {
+        eprintln!(
+            "nonlinearity: cubic on mode {k}: amplitude {amp:.3e}, kappa0 {kappa0:.3e}, best x {:.3} -> fit {fit_lin:.2} -> {best:.2} %",
+            x.exp()
+        );
+    }
+    (best > fit_lin).then(|| (with(kappa0 * x.exp()), kappa0 * x.exp(), fit_lin, best))
 }
 
 fn cand_unmodeled_mode(twin: &Twin, model: &ModalModel, pts: &[Points]) -> Option<Cand> {
@@ -1118,12 +1222,15 @@ fn summary_for(cause: Cause, d: &Map<String, Value>, before: f64, after: f64) ->
             num("freq_low_force_hz"),
             num("freq_high_force_hz"),
             txt("kind"),
-            if d.contains_key("extension") {
-                "A linear twin cannot follow both force levels, so it was left as it was \
-                 (the FMU has no amplitude-dependent term)."
+            if d.contains_key("kappa") {
+                "A cubic stiffness term on that mode was added to the twin (mtwin simulate and \
+                 the FMU carry it), so the twin follows both force levels."
+            } else if d.contains_key("extension") {
+                "Neither a cubic stiffness term nor a retune helped on the held-out data, so \
+                 the twin was left as it was."
             } else {
-                "The twin was retuned to the hard-hit behaviour (the FMU has no \
-                 amplitude-dependent term)."
+                "The twin was retuned to the hard-hit behaviour (a linear twin cannot follow \
+                 both force levels)."
             }
         ),
     }
@@ -1268,7 +1375,7 @@ pub fn diagnose(
             let mut d = cands[i].details.clone();
             d.insert(
                 "extension".into(),
-                json!("none: the twin linearised at the hard-hit level fits the held-out data worse; an amplitude-dependent term is needed (not in simulate/FMU)"),
+                json!("none: neither a cubic modal stiffness nor the twin linearised at the hard-hit level fits the held-out data better"),
             );
             (Cause::Nonlinearity, d, twin.clone(), fit_before)
         }
