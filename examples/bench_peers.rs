@@ -248,7 +248,14 @@ fn case_d(dir: &Path, machine: &ModalMachine) -> Res<Value> {
         .enumerate()
         .map(|(i, &p)| noise_record(machine, p, 10.0, 100 + i as u64))
         .collect();
-    let opts = CampaignOptions::default();
+    let mut opts = CampaignOptions::default();
+    if let Ok(w) = std::env::var("MTWIN_BENCH_WEIGHTING") {
+        opts.fit.weighting = match w.as_str() {
+            "uniform" => identify::rational_fit::Weighting::Uniform,
+            "ml" => identify::rational_fit::Weighting::InverseVariance,
+            _ => identify::rational_fit::Weighting::Coherence,
+        };
+    }
     let res = identify_campaign(&recs, &opts, &|_, _| {})?;
     let ms = median_ms(3, || identify_campaign(&recs, &opts, &|_, _| {}));
     let mut entries = Vec::new();

@@ -6,7 +6,7 @@ use crate::error::{Error, Result};
 use crate::frf::{fit_percent, Frf};
 use crate::interpolate::{Method, TwinEvaluator};
 use crate::model::ModalModel;
-use crate::rational_fit::{fit_frf, refine_from, FitOptions};
+use crate::rational_fit::{fit_frf, refine_from, FitOptions, Weighting};
 use crate::spectra::{estimate_frf, FrfOptions};
 use crate::stabilization::StabilizationDiagram;
 use crate::timeseries::TimeSeries;
@@ -26,6 +26,11 @@ pub struct CampaignOptions {
     pub pose_tol_m: f64,
     /// Name written into the twin.
     pub name: String,
+    /// With the default coherence weighting, also fit each pose with the inverse-variance
+    /// (maximum-likelihood) weighting and keep the model that fits the measured FRF better
+    /// (channel fits in the band). Coherence weighting is robust on real impact data with
+    /// model error; the ML weighting recovers weak modes far below the largest peak.
+    pub try_ml_weighting: bool,
 }
 
 impl Default for CampaignOptions {
@@ -35,6 +40,7 @@ impl Default for CampaignOptions {
             fit: FitOptions::default(),
             pose_tol_m: 1e-3,
             name: "machine".into(),
+            try_ml_weighting: true,
         }
     }
 }
@@ -211,10 +217,25 @@ pub fn identify_frfs(
     let fits: Vec<Result<PoseFit>> = measured
         .into_par_iter()
         .map(|m| {
-            let res = fit_frf(&m.frf, &opts.fit).map_err(|e| match e {
+            let mut res = fit_frf(&m.frf, &opts.fit).map_err(|e| match e {
                 Error::Numerical(msg) => Error::Numerical(format!("pose {:?}: {msg}", m.pose)),
                 other => other,
             })?;
+            if opts.try_ml_weighting && opts.fit.weighting == Weighting::Coherence {
+                let ml = FitOptions {
+                    weighting: Weighting::InverseVariance,
+                    ..opts.fit.clone()
+                };
+                if let Ok(alt) = fit_frf(&m.frf, &ml) {
+                    let band = band_of(&m.frf, &opts.fit);
+                    let score = |r: &crate::rational_fit::FitResult| {
+                        mean_fit(&channel_fits(&r.model, &m.frf, band))
+                    };
+                    if score(&alt) > score(&res) {
+                        res = alt;
+                    }
+                }
+            }
             let mut model = res.model;
             if let Some(s) = m.exp_window_sigma {
                 model.shift_poles(s);
