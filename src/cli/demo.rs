@@ -131,6 +131,7 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
             estimator: "h1".into(),
             excitation: "auto".into(),
             pose_tol: 1e-3,
+            weighting: "auto".into(),
             report: Some(dir.join("identify.html")),
             name: "demo machine".into(),
             frf_in: super::frf_io::FrfInputArgs {

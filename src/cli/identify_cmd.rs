@@ -37,6 +37,10 @@ pub struct Args {
     /// Records within this distance \[m\] share a pose.
     #[arg(long, default_value_t = 1e-3)]
     pub pose_tol: f64,
+    /// Line weighting of the fit: auto (coherence weighting, and the inverse-variance fit
+    /// where that fits the measured FRF better), coherence, or ml (inverse variance).
+    #[arg(long, default_value = "auto", value_parser = ["auto", "coherence", "ml"])]
+    pub weighting: String,
     /// Also write an HTML report (FRFs, coherence, stabilization diagram, modes across
     /// the workspace) here.
     #[arg(long)]
@@ -72,10 +76,16 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
         fit: FitOptions {
             n_modes: a.order,
             band_hz: band,
+            weighting: if a.weighting == "ml" {
+                identify::rational_fit::Weighting::InverseVariance
+            } else {
+                identify::rational_fit::Weighting::Coherence
+            },
             ..FitOptions::default()
         },
         pose_tol_m: a.pose_tol,
         name: a.name.clone(),
+        try_ml_weighting: a.weighting == "auto",
     };
     let bar = (!out.quiet && !out.json).then(|| {
         let b = indicatif::ProgressBar::new(0);
