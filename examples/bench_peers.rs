@@ -311,6 +311,78 @@ fn case_d(dir: &Path, machine: &ModalMachine) -> Res<Value> {
     }))
 }
 
+/// f. Refit from milling data: the exact twin of the machine before the wear, mode 2
+/// stiffness −15 %, milling (fx, fy; ax, ay) at 3 spindle speeds × 15 s at the centre.
+fn case_f(dir: &Path, machine: &ModalMachine) -> Res<Value> {
+    use identify::refit::{default_nfft, refit, RefitMethod, RefitOptions};
+    use vmachine::daq::milling_record;
+    use vmachine::excitation::Milling;
+    let axes = [Axis::X, Axis::Y];
+    let twin = machine.exact_twin([3, 3, 2], &axes);
+    let worn = machine.clone().with_stiffness_change(2, 0.85);
+    let c = machine.center();
+    let recs: Vec<TimeSeries> = [2400.0, 3300.0, 4500.0]
+        .iter()
+        .enumerate()
+        .map(|(i, &rpm)| {
+            let cut = Milling {
+                rpm,
+                teeth: 3,
+                ..Milling::default()
+            };
+            let daq = Daq {
+                seed: 107 + i as u64,
+                ..Daq::default()
+            };
+            milling_record(&worn, &cut, &|_t| c, 15.0, 0.5, &daq, 7 + i as u64)
+        })
+        .collect();
+    let band = (30.0, 1500.0);
+    let freqs: Vec<f64> = (0..=1000)
+        .map(|i| band.0 + (band.1 - band.0) * i as f64 / 1000.0)
+        .collect();
+    let truth = worn.frf_at(c, &freqs, &axes);
+    let tp = dir.join("f_truth.csv");
+    write_frf_csv(&tp, &truth)?;
+    let mut files = Vec::new();
+    for (i, r) in recs.iter().enumerate() {
+        let p = dir.join(format!("f_milling{i}.csv"));
+        write_timeseries(&p, r)?;
+        files.push(path_str(&p));
+    }
+    let old = machine.model_at(c, &axes);
+    let nfft = default_nfft(&recs[0], &old);
+    let mut out = serde_json::Map::new();
+    for (name, method) in [
+        ("time", RefitMethod::Time),
+        ("modal", RefitMethod::Modal),
+        ("paper", RefitMethod::Paper),
+    ] {
+        let opts = RefitOptions {
+            method,
+            ..RefitOptions::default()
+        };
+        let (new, _) = refit(&twin, &recs, &opts)?;
+        let mut ev = identify::interpolate::TwinEvaluator::new(&new)?;
+        let m = ev.model_at(c).clone();
+        let fit = worst_fit(&m, &direct_channels(truth.clone()), band);
+        let ms = median_ms(3, || refit(&twin, &recs, &opts));
+        println!("f. refit from milling ({name}): worst direct channel {fit:.3} %, {ms:.0} ms");
+        out.insert(name.into(), json!({"fit": fit, "ms": ms}));
+    }
+    Ok(json!({
+        "records": files, "truth": path_str(&tp), "band": [band.0, band.1], "nfft": nfft,
+        "natural_freqs_hz": (0..worn.modes.len()).map(|k| worn.mode_at(k, c).freq_hz()).collect::<Vec<_>>(),
+        "mtwin": Value::Object(out),
+    }))
+}
+
+/// Only the direct channels (xx, yy) of an FRF.
+fn direct_channels(mut frf: Frf) -> Frf {
+    frf.channels.retain(|c| c.channel.output == c.channel.input);
+    frf
+}
+
 fn case_e(machine: &ModalMachine) -> Res<Value> {
     let twin = machine.exact_twin([3, 3, 2], &[Axis::X, Axis::Y]);
     let mut s = Slave::new(&twin)?;
@@ -358,6 +430,7 @@ fn main() -> Res<()> {
         "c_chain": case_c(&dir)?,
         "d_campaign": case_d(&dir, &machine)?,
         "e_fmu": case_e(&machine)?,
+        "f_refit": case_f(&dir, &machine)?,
     });
     let p = dir.join("cases.json");
     std::fs::write(&p, serde_json::to_string_pretty(&out)?)?;
