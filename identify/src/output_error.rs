@@ -504,6 +504,9 @@ pub struct OeOptions {
     /// Estimate a white noise floor of every measured force and regress on the force's
     /// conditional expectation (removes the errors-in-variables bias of a noisy force).
     pub force_noise: bool,
+    /// Samples used per record at most (the first ones; memory and time grow with it:
+    /// about 50 bytes per sample per free mode and force).
+    pub max_samples: usize,
 }
 
 impl Default for OeOptions {
@@ -511,6 +514,7 @@ impl Default for OeOptions {
         OeOptions {
             max_iter: 40,
             force_noise: true,
+            max_samples: 1 << 20,
         }
     }
 }
@@ -548,6 +552,13 @@ pub fn refine(
         if ts.len() < 64 {
             continue;
         }
+        let cut;
+        let ts = if ts.len() > opts.max_samples.max(64) {
+            cut = crate::diagnose::slice(ts, 0, opts.max_samples.max(64));
+            &cut
+        } else {
+            ts
+        };
         let skip = skip_samples(start, ts);
         skipped_s = skipped_s.max(skip as f64 * ts.dt);
         recs.push(prepare(&held, skip, ts, &mut planner)?);
@@ -770,7 +781,13 @@ mod tests {
         start.modes[0].wn *= 1.005;
         start.modes[0].zeta *= 1.3;
         start.channels[0].num[0].b0 *= 0.8;
-        let res = refine(&start, &[0], &[ts], OeOptions::default()).unwrap();
+        let res = refine(
+            &start,
+            &[0],
+            std::slice::from_ref(&ts),
+            OeOptions::default(),
+        )
+        .unwrap();
         let m0 = res.model.modes[0];
         assert!((m0.wn / truth.modes[0].wn - 1.0).abs() < 1e-4, "{m0:?}");
         assert!((m0.zeta / truth.modes[0].zeta - 1.0).abs() < 1e-3, "{m0:?}");
@@ -779,5 +796,18 @@ mod tests {
         assert!(res.rel_rms_after < 1e-3 * res.rel_rms_before.max(1e-300) + 1e-6);
         // the held mode is untouched
         assert_eq!(res.model.modes[1], truth.modes[1]);
+        // a record cut to its first 20 000 samples still gives the mode
+        let short = refine(
+            &start,
+            &[0],
+            &[ts],
+            OeOptions {
+                max_samples: 20_000,
+                ..OeOptions::default()
+            },
+        )
+        .unwrap();
+        let m0 = short.model.modes[0];
+        assert!((m0.wn / truth.modes[0].wn - 1.0).abs() < 1e-4, "{m0:?}");
     }
 }

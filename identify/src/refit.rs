@@ -600,10 +600,15 @@ pub fn refit(
             let pts2 = operating_points(&sp, &lines_c, &old, Some(&first.model));
             let res = update_modes(&old, &free, &pts2, Prior::default(), 60)?;
             let model = if opts.method == RefitMethod::Time {
-                let oe =
-                    crate::output_error::refine(&res.model, &free, records, Default::default())?;
-                report.output_error = Some(oe.summary());
-                oe.model
+                // the modal update stands when the output-error stage cannot run
+                // (the report then has no `output_error`)
+                match crate::output_error::refine(&res.model, &free, records, Default::default()) {
+                    Ok(oe) => {
+                        report.output_error = Some(oe.summary());
+                        oe.model
+                    }
+                    Err(_) => res.model,
+                }
             } else {
                 res.model
             };
