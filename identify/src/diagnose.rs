@@ -763,13 +763,29 @@ fn cand_nonlinearity(
         let dz = b.model.modes[k].zeta / a.model.modes[k].zeta - 1.0;
         moves.push((k, df, dz, a.model, b.model));
     }
-    // the mode whose FREQUENCY moves most (≥ 0.5 %); a neighbour it pushes changes its
+    if std::env::var_os("MTWIN_DEBUG_DIAGNOSE").is_some() {
+        for (k, df, dz, _, _) in &moves {
+            eprintln!(
+                "nonlinearity: mode {k}: frequency {:+.3} %, damping {:+.1} %",
+                100.0 * df,
+                100.0 * dz
+            );
+        }
+    }
+    // the scatter of the frequency moves: most modes are linear, their moves are noise
+    let med_df = {
+        let mut v: Vec<f64> = moves.iter().map(|m| m.1.abs()).collect();
+        v.sort_by(f64::total_cmp);
+        v.get(v.len() / 2).copied().unwrap_or(0.0)
+    };
+    // the mode whose FREQUENCY moves most (≥ 0.5 %, or ≥ 0.15 % and 10× the median move of
+    // all modes: well above their scatter); a neighbour it pushes changes its
     // damping more than its frequency. Without a frequency move, a damping drop ≥ 20 %
     // under hard hits is friction.
     let by_f = moves
         .iter()
         .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
-        .filter(|m| m.1.abs() >= 0.005);
+        .filter(|m| m.1.abs() >= 0.005 || (m.1.abs() >= 0.0015 && m.1.abs() >= 10.0 * med_df));
     let by_z = || {
         moves
             .iter()
