@@ -360,6 +360,34 @@ impl Twin {
                 }
             }
         }
+        // extensions: finite numbers, cubic terms on modes the twin has
+        let e = &self.extensions;
+        if e.delay_s.is_some_and(|d| !d.is_finite() || d.abs() > 1.0) {
+            return Err(bad(
+                "extensions.delay_s must be a finite delay of at most 1 s".into(),
+            ));
+        }
+        if e.disturbance.iter().any(|d| {
+            !(d.freq_hz.is_finite() && d.freq_hz >= 0.0 && d.a.is_finite() && d.b.is_finite())
+        }) {
+            return Err(bad(
+                "extensions.disturbance: every freq_hz (>= 0), a and b must be finite".into(),
+            ));
+        }
+        let n_modes = self.poses[0].model.modes.len();
+        if let Some(c) = e
+            .cubic
+            .iter()
+            .find(|c| c.mode >= n_modes || !c.kappa.is_finite())
+        {
+            return Err(bad(format!(
+                "extensions.cubic: mode {} with kappa {} (the twin has modes 0..{}; kappa must \
+                 be finite)",
+                c.mode,
+                c.kappa,
+                n_modes.saturating_sub(1)
+            )));
+        }
         Ok(())
     }
 

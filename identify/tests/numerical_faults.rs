@@ -567,3 +567,38 @@ fn fit_percent_is_scale_free_and_never_nan() {
         assert_eq!(fit_percent(&a, &b), f64::NEG_INFINITY);
     }
 }
+
+#[test]
+fn twin_extensions_out_of_range_are_refused_with_the_field_named() {
+    use identify::twin::{CubicStiffness, Twin};
+    let twin = vmachine::structure::ModalMachine::default_machine()
+        .exact_twin([2, 1, 1], &[Axis::X, Axis::Y]);
+    let n = twin.poses[0].model.modes.len();
+    let p = std::path::Path::new("t.json");
+    let mut bad_mode = twin.clone();
+    bad_mode.extensions.cubic.push(CubicStiffness {
+        mode: n,
+        kappa: 1.0,
+    });
+    let mut bad_kappa = twin.clone();
+    bad_kappa.extensions.cubic.push(CubicStiffness {
+        mode: 0,
+        kappa: f64::INFINITY,
+    });
+    let mut bad_delay = twin.clone();
+    bad_delay.extensions.delay_s = Some(f64::NAN);
+    for (t, word) in [
+        (bad_mode, "extensions.cubic"),
+        (bad_kappa, "extensions.cubic"),
+        (bad_delay, "extensions.delay_s"),
+    ] {
+        let e = t.validate(p).expect_err(word).to_string();
+        assert!(e.contains(word), "{e}");
+    }
+    let mut good = twin;
+    good.extensions.cubic.push(CubicStiffness {
+        mode: n - 1,
+        kappa: -3.0e6,
+    });
+    good.validate(p).unwrap();
+}
