@@ -214,6 +214,9 @@ pub struct Evidence {
     pub freqs_hz: Vec<f64>,
     /// Per channel: H1, coherence.
     pub channels: Vec<(Channel, Vec<Complex64>, Vec<f64>)>,
+    /// Per channel (as `channels`): the standard error of each H point when the
+    /// estimate provides it (multi-input Welch); empty = from coherence.
+    pub sigma: Vec<Vec<f64>>,
     /// Averages behind each estimate.
     pub n_avg: usize,
     /// `impact` or `continuous`.
@@ -318,11 +321,33 @@ fn impact_evidence(parts: &[TimeSeries]) -> Result<Evidence> {
     }
     Ok(Evidence {
         freqs_hz: freqs,
+        sigma: vec![Vec::new(); channels.len()],
         channels,
         n_avg: n_avg.max(1),
         kind: "impact".into(),
         noise_share: if pw > 0.0 { pw_noise / pw } else { 0.0 },
     })
+}
+
+/// Lines of a Welch estimate dominated by a periodic force component (in milling the
+/// tooth-passing and spindle harmonics) or by its window leakage: the force PSD (summed
+/// over the inputs) above 1.25 × its median over ±16 lines. There the H1 estimate is the
+/// FRF at the harmonic's exact frequency, not at the line's: up to half a line off in
+/// frequency, with a coherence near 1 — a precise-looking but biased point near a
+/// resonance. The broadband share of the force gives the evidence between them.
+fn periodic_lines(sp: &OperatingSpectra) -> Vec<bool> {
+    let n = sp.freqs_hz.len();
+    let p: Vec<f64> = (0..n)
+        .map(|l| sp.psd_in.iter().map(|(_, v)| v[l]).sum())
+        .collect();
+    let half = 16usize;
+    (0..n)
+        .map(|l| {
+            let mut w: Vec<f64> = p[l.saturating_sub(half)..(l + half + 1).min(n)].to_vec();
+            w.sort_by(f64::total_cmp);
+            p[l] > 1.25 * w[w.len() / 2]
+        })
+        .collect()
 }
 
 fn continuous_evidence(parts: &[TimeSeries]) -> Result<Evidence> {
@@ -342,15 +367,23 @@ fn continuous_evidence(parts: &[TimeSeries]) -> Result<Evidence> {
             pwn += (1.0 - gi) * pi;
         }
     }
+    let periodic = periodic_lines(&sp);
     let channels =
         sp.h.iter()
             .map(|(c, h)| {
                 let o = sp.outputs.iter().position(|a| *a == c.output).unwrap_or(0);
-                (*c, h.clone(), sp.coherence[o].1.clone())
+                let mut g = sp.coherence[o].1.clone();
+                // not evidence (see periodic_lines): coherence 0 keeps them out of `points`
+                g.iter_mut()
+                    .zip(&periodic)
+                    .filter(|(_, p)| **p)
+                    .for_each(|(g, _)| *g = 0.0);
+                (*c, h.clone(), g)
             })
             .collect();
     Ok(Evidence {
         freqs_hz: sp.freqs_hz.clone(),
+        sigma: sp.sigma.iter().map(|(_, s)| s.clone()).collect(),
         channels,
         n_avg: sp.n_avg,
         kind: "continuous".into(),
@@ -371,29 +404,88 @@ pub fn evidence(parts: &[TimeSeries]) -> Result<Evidence> {
 pub fn points(ev: &Evidence, band: (f64, f64), min_coh: f64) -> Vec<Points> {
     ev.channels
         .iter()
-        .map(|(c, h, g)| {
+        .zip(&ev.sigma)
+        .map(|((c, h, g), sig)| {
             let mut p = Points {
                 channel: *c,
                 freqs_hz: vec![],
                 h: vec![],
                 sigma: vec![],
             };
-            let hmax = h.iter().map(|v| v.norm()).fold(0.0, f64::max);
+            // the channel's peak over the lines that are evidence (below the band, an
+            // accelerometer's noise divided by ω² can dwarf every resonance)
+            let hmax = h
+                .iter()
+                .zip(&ev.freqs_hz)
+                .zip(g)
+                .filter(|((_, f), g)| **f >= band.0 && **f <= band.1 && **g >= min_coh)
+                .map(|((v, _), _)| v.norm())
+                .fold(0.0, f64::max);
             for (i, f) in ev.freqs_hz.iter().enumerate() {
                 if *f < band.0 || *f > band.1 || g[i] < min_coh {
                     continue;
                 }
-                let rel = OperatingSpectra::rel_error(g[i], ev.n_avg).max(5e-3);
+                let rel = OperatingSpectra::rel_error(g[i], ev.n_avg);
+                let se = sig.get(i).copied().unwrap_or(rel * h[i].norm());
                 p.freqs_hz.push(*f);
                 p.h.push(h[i]);
-                // floor: 0.1 % of the channel's peak (numerical and leakage limits)
+                // floors: 0.5 % of the point, 0.1 % of the channel's peak (numerical and
+                // leakage limits)
                 p.sigma
-                    .push((rel * h[i].norm()).max(1e-3 * hmax).max(1e-300));
+                    .push(se.max(5e-3 * h[i].norm()).max(1e-3 * hmax).max(1e-300));
             }
             p
         })
         .filter(|p| !p.h.is_empty())
         .collect()
+}
+
+/// Adds the twin's own uncertainty to the standard errors of `pts`: at each line, the
+/// local RMS misfit (±2.5 % of frequency, at least the nearest line) of the twin's
+/// measured pose nearest to `pose` against the FRF it was identified from. New data more
+/// precise than the twin's own (long operating records) must not call the twin's
+/// identification error a misfit.
+pub fn add_twin_uncertainty(pts: &mut [Points], twin: &Twin, pose: [f64; 3]) {
+    let dist = |q: &[f64; 3]| (0..3).map(|a| (q[a] - pose[a]).powi(2)).sum::<f64>();
+    let Some(pm) = twin
+        .poses
+        .iter()
+        .min_by(|a, b| dist(&a.pose).total_cmp(&dist(&b.pose)))
+    else {
+        return;
+    };
+    let mut model = pm.model.clone();
+    if let Some(s) = pm.frf_exp_window_sigma {
+        model.shift_poles(-s);
+    }
+    let fr = &pm.frf.freqs_hz;
+    for p in pts.iter_mut() {
+        let (Some(ci), Some(stored)) = (
+            model.channel_index(p.channel),
+            pm.frf.channels.iter().find(|c| c.channel == p.channel),
+        ) else {
+            continue;
+        };
+        let r2: Vec<f64> = fr
+            .iter()
+            .zip(&stored.h)
+            .map(|(f, h)| (model.eval_hz(ci, *f) - h).norm_sqr())
+            .collect();
+        if r2.is_empty() {
+            continue;
+        }
+        for (f, sg) in p.freqs_hz.iter().zip(p.sigma.iter_mut()) {
+            let a = fr.partition_point(|x| *x < 0.975 * f);
+            let b = fr.partition_point(|x| *x <= 1.025 * f);
+            let local = if b > a {
+                r2[a..b].iter().sum::<f64>() / (b - a) as f64
+            } else {
+                let i = fr.partition_point(|x| x < f).min(r2.len() - 1);
+                r2[i]
+            };
+            *sg = (*sg * *sg + local).sqrt();
+        }
+    }
 }
 
 fn band_of(twin: &Twin) -> (f64, f64) {
@@ -1148,7 +1240,7 @@ pub fn diagnose(
         .collect();
     let ev = evidence(&parts)?;
     let band = band_of(twin);
-    let pts = points(&ev, band, opts.min_coherence);
+    let mut pts = points(&ev, band, opts.min_coherence);
     let pose = {
         let mut p = [0.0; 3];
         let n: usize = parts.iter().map(TimeSeries::len).sum();
@@ -1160,10 +1252,44 @@ pub fn diagnose(
         }
         p
     };
+    add_twin_uncertainty(&mut pts, twin, pose);
     let mut evl = TwinEvaluator::new(twin)?;
     let model = evl.model_at(pose).clone();
     let chi0 = chi(&model, &pts, twin.extensions.delay_s.unwrap_or(0.0));
     let chi_loc = chi_local(&model, &pts, twin.extensions.delay_s.unwrap_or(0.0));
+    if std::env::var_os("MTWIN_DEBUG_DIAGNOSE").is_some() {
+        eprintln!(
+            "diagnose: {} evidence, {} averages, noise share {:.3}, {} points, chi {chi0:.2}, local {chi_loc:.2}",
+            ev.kind,
+            ev.n_avg,
+            ev.noise_share,
+            pts.iter().map(|p| p.h.len()).sum::<usize>()
+        );
+    }
+    if std::env::var_os("MTWIN_DEBUG_DIAGNOSE").is_some() {
+        let mut worst: Vec<(f64, f64, String, f64)> = Vec::new();
+        for p in &pts {
+            let Some(ci) = model.channel_index(p.channel) else {
+                continue;
+            };
+            for ((f, h), sg) in p.freqs_hz.iter().zip(&p.h).zip(&p.sigma) {
+                let m = model.eval_hz(ci, *f);
+                worst.push((
+                    ((m - h) / sg).norm(),
+                    *f,
+                    p.channel.name(),
+                    (m - h).norm() / h.norm(),
+                ));
+            }
+        }
+        worst.sort_by(|a, b| b.0.total_cmp(&a.0));
+        for w in worst.iter().take(8) {
+            eprintln!(
+                "  residual {:.1} sigma at {:.1} Hz {} (rel {:.3})",
+                w.0, w.1, w.2, w.3
+            );
+        }
+    }
     // a misfit: globally (RMS) or in some band (a resonance is local)
     let mut misfit = chi0 > opts.chi_none || chi_loc > opts.chi_local;
     // data at several poses: judge each pose against the twin there too (pooling the
@@ -1173,7 +1299,8 @@ pub fn diagnose(
         for g in &groups {
             let recs: Vec<TimeSeries> = g.records.iter().map(|&i| parts[i].clone()).collect();
             let Ok(e) = evidence(&recs) else { continue };
-            let p = points(&e, band, opts.min_coherence);
+            let mut p = points(&e, band, opts.min_coherence);
+            add_twin_uncertainty(&mut p, twin, g.pose);
             let m = evl.model_at(g.pose).clone();
             let delay = twin.extensions.delay_s.unwrap_or(0.0);
             if chi(&m, &p, delay) > opts.chi_none || chi_local(&m, &p, delay) > opts.chi_local {
