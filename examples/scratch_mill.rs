@@ -1,80 +1,34 @@
-use identify::axis::Axis;
-use identify::interpolate::TwinEvaluator;
-use vmachine::hidden::{base_twin, AXES, POSE};
+use identify::campaign::group_by_pose;
+use identify::diagnose::{evidence, points};
+use identify::modal_update::{chi, update_modes, Prior};
+use vmachine::hidden::{base_twin, milling_case, Effect, AXES};
 use vmachine::structure::ModalMachine;
 fn main() {
     let m = ModalMachine::default_machine();
     let tw = base_twin(&m, &AXES);
-    for p in &tw.poses {
-        println!(
-            "fit {:?}",
-            p.fit
-                .iter()
-                .map(|c| format!("{} {:.3}", c.channel, c.fit_pct))
-                .collect::<Vec<_>>()
-        );
-        println!(
-            "modes {:?}",
-            p.model
-                .modes
-                .iter()
-                .map(|m| format!("{:.2} {:.4}", m.freq_hz(), m.zeta))
-                .collect::<Vec<_>>()
-        );
-    }
-    let mut ev = TwinEvaluator::new(&tw).unwrap();
-    let model = ev.model_at(POSE).clone();
-    let truth = m.model_at(POSE, &AXES);
-    let _ = Axis::X;
-    for ci in 0..truth.channels.len() {
-        let c = truth.channels[ci].channel;
-        let mi = model.channel_index(c).unwrap();
-        let fr: Vec<f64> = (30..2500).map(|f| f as f64).collect();
-        let hmax = fr
-            .iter()
-            .map(|f| truth.eval_hz(ci, *f).norm())
-            .fold(0.0, f64::max);
-        let worst = fr
-            .iter()
-            .map(|f| {
-                (
-                    (model.eval_hz(mi, *f) - truth.eval_hz(ci, *f)).norm() / hmax,
-                    *f,
+    let model = tw.poses[0].model.clone();
+    for seed in [104u64, 106] {
+        let c = milling_case(Effect::PoseDependence, seed, &tw);
+        for g in group_by_pose(&c.records, 1e-3) {
+            let recs: Vec<_> = g.records.iter().map(|&i| c.records[i].clone()).collect();
+            let e = evidence(&recs).unwrap();
+            let pts = points(&e, (30.0, 2500.0), 0.8);
+            let npts: usize = pts.iter().map(|p| p.h.len()).sum();
+            for k in [0usize, 2, 3] {
+                let truth = m.mode_at(k, g.pose).freq_hz();
+                let r = update_modes(
+                    &model,
+                    &[k],
+                    &pts,
+                    Prior {
+                        ln_wn: 0.3,
+                        ..Prior::default()
+                    },
+                    40,
                 )
-            })
-            .fold((0.0, 0.0), |a, b| if b.0 > a.0 { b } else { a });
-        println!(
-            "{c}: hmax {hmax:.3e} worst abs err / hmax {:.4} at {} Hz",
-            worst.0, worst.1
-        );
-    }
-    let p = &tw.poses[0];
-    let fr = &p.frf.freqs_hz;
-    println!(
-        "stored frf {} lines {:.2}..{:.2} df {:.3}",
-        fr.len(),
-        fr[0],
-        fr[fr.len() - 1],
-        fr[1] - fr[0]
-    );
-    for c in &p.frf.channels {
-        let mi = model.channel_index(c.channel).unwrap();
-        let ti = truth.channel_index(c.channel).unwrap();
-        for f0 in [62.0, 100.0, 186.0, 280.0, 420.0, 450.0, 600.0, 1000.0] {
-            let (mut rr, mut ee, mut n) = (0.0, 0.0, 0.0);
-            for (i, f) in fr.iter().enumerate() {
-                if (*f - f0).abs() <= 0.025 * f0 {
-                    rr += (p.model.eval_hz(mi, *f) - c.h[i]).norm_sqr();
-                    ee += (model.eval_hz(mi, *f) - truth.eval_hz(ti, *f)).norm_sqr();
-                    n += 1.0;
-                }
+                .unwrap();
+                println!("seed {seed} pose {:.3} pts {npts} mode {k}: truth {truth:.2}  retune {:.2} chi {:.2} -> {:.2}", g.pose[0], r.model.modes[k].freq_hz(), chi(&model, &pts, 0.0), chi(&r.model, &pts, 0.0));
             }
-            print!(
-                " {f0}: res {:.2e} err {:.2e} n {n} |",
-                (rr / n).sqrt(),
-                (ee / n).sqrt()
-            );
         }
-        println!(" {}", c.channel);
     }
 }

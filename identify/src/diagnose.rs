@@ -412,13 +412,20 @@ pub fn points(ev: &Evidence, band: (f64, f64), min_coh: f64) -> Vec<Points> {
                 h: vec![],
                 sigma: vec![],
             };
-            // the channel's peak over the lines that are evidence (below the band, an
-            // accelerometer's noise divided by ω² can dwarf every resonance)
+            // the channel's peak: for continuous data over the lines that are evidence
+            // (below the band, an accelerometer's noise divided by ω² dwarfs every
+            // resonance and the floor would swamp the Welch errors). Impact evidence keeps
+            // the peak over all lines: its thresholds and the nonlinearity retunes were
+            // tuned with that floor (with the in-band peak, 18 → 20/20 new modes but
+            // 17 → 6/20 nonlinearities found in bench/diagnose_confusion.md's impact run)
+            let continuous = ev.kind == "continuous";
             let hmax = h
                 .iter()
                 .zip(&ev.freqs_hz)
                 .zip(g)
-                .filter(|((_, f), g)| **f >= band.0 && **f <= band.1 && **g >= min_coh)
+                .filter(|((_, f), g)| {
+                    !continuous || (**f >= band.0 && **f <= band.1 && **g >= min_coh)
+                })
                 .map(|((v, _), _)| v.norm())
                 .fold(0.0, f64::max);
             for (i, f) in ev.freqs_hz.iter().enumerate() {
@@ -649,6 +656,24 @@ fn cand_mode_change(twin: &Twin, model: &ModalModel, pts: &[Points]) -> Option<C
     })
 }
 
+/// The points of `pts` between `lo` and `hi` Hz.
+fn near_points(pts: &[Points], lo: f64, hi: f64) -> Vec<Points> {
+    pts.iter()
+        .map(|p| {
+            let keep: Vec<usize> = (0..p.freqs_hz.len())
+                .filter(|&i| p.freqs_hz[i] >= lo && p.freqs_hz[i] <= hi)
+                .collect();
+            Points {
+                channel: p.channel,
+                freqs_hz: keep.iter().map(|&i| p.freqs_hz[i]).collect(),
+                h: keep.iter().map(|&i| p.h[i]).collect(),
+                sigma: keep.iter().map(|&i| p.sigma[i]).collect(),
+            }
+        })
+        .filter(|p| !p.h.is_empty())
+        .collect()
+}
+
 /// Data at several poses whose modes move with the pose more than the twin's
 /// interpolation says: per pose, each mode's frequency refitted alone (as in
 /// [`cand_mode_change`]); the mode whose shift varies most across the poses and the axis
@@ -685,8 +710,14 @@ fn cand_pose_dependence(
         let mut models = Vec::new();
         for (_, m0, pts, _, _) in &per {
             let r = retune(m0, k, pts).ok()?;
-            // a shift only counts where the refit explains the data better
-            if chi(&r.model, pts, 0.0) > 0.9 * chi(m0, pts, 0.0) {
+            // a shift only counts where the refit explains the data around the mode
+            // better (when every mode moves with the pose, one mode's retune hardly
+            // changes the χ of the whole band) and stays a shift (< 30 %), not a jump to
+            // another resonance
+            let (f0, f1) = (m0.modes[k].freq_hz(), r.model.modes[k].freq_hz());
+            let near = near_points(pts, 0.9 * f0.min(f1), 1.1 * f0.max(f1));
+            let shift = f1 / f0 - 1.0;
+            if shift.abs() >= 0.3 || chi(&r.model, &near, 0.0) > 0.9 * chi(m0, &near, 0.0) {
                 shifts.push(0.0);
                 models.push(m0.clone());
                 continue;
@@ -802,6 +833,33 @@ fn cand_pose_dependence(
     })
 }
 
+/// The records split by force level (peak force below / above the geometric mean of the
+/// smallest and largest peak) when the levels differ clearly (ratio ≥ 2), else nothing.
+fn force_levels(parts: &[TimeSeries]) -> Vec<Vec<TimeSeries>> {
+    let peaks: Vec<f64> = parts
+        .iter()
+        .map(|t| force_mag(t).iter().fold(0.0f64, |a, v| a.max(*v)))
+        .collect();
+    let (lo, hi) = peaks
+        .iter()
+        .fold((f64::INFINITY, 0.0f64), |(a, b), p| (a.min(*p), b.max(*p)));
+    if !(lo > 0.0 && hi >= 2.0 * lo) {
+        return Vec::new();
+    }
+    let split = (lo * hi).sqrt();
+    [false, true]
+        .iter()
+        .map(|high| {
+            parts
+                .iter()
+                .zip(&peaks)
+                .filter(|(_, p)| (**p >= split) == *high)
+                .map(|(t, _)| t.clone())
+                .collect()
+        })
+        .collect()
+}
+
 /// Records at clearly different force levels (peak force ratio ≥ 2): each mode's
 /// frequency and damping refitted on the low-force and on the high-force records; the mode
 /// that moves most with the force level names the nonlinearity (frequency up = hardening,
@@ -853,6 +911,11 @@ fn cand_nonlinearity(
         let df = b.model.modes[k].wn / a.model.modes[k].wn - 1.0;
         let dz = b.model.modes[k].zeta / a.model.modes[k].zeta - 1.0;
         moves.push((k, df, dz, a.model, b.model));
+    }
+    if std::env::var_os("MTWIN_DEBUG_DIAGNOSE").is_some() {
+        for m in &moves {
+            eprintln!("nonlinearity: mode {} df {:+.4} dz {:+.3}", m.0, m.1, m.2);
+        }
     }
     // the mode whose FREQUENCY moves most (≥ 0.5 %); a neighbour it pushes changes its
     // damping more than its frequency. Without a frequency move, a damping drop ≥ 20 %
@@ -1020,24 +1083,32 @@ fn cand_time_delay(twin: &Twin, model: &ModalModel, pts: &[Points], dt: f64) -> 
     })
 }
 
+/// The channels the data have and the twin lacks, each fitted with the twin's modes
+/// (numerators and residual only); `channel` names the one with the strongest response
+/// (in standard errors), `channels` lists every one added (milling excites x and y at
+/// once: both cross channels can be missing).
 fn cand_cross_coupling(twin: &Twin, model: &ModalModel, pts: &[Points]) -> Option<Cand> {
-    let missing: Vec<&Points> = pts
+    let strength = |p: &Points| {
+        p.h.iter()
+            .zip(&p.sigma)
+            .map(|(h, s)| (h / s).norm_sqr())
+            .sum::<f64>()
+    };
+    let mut missing: Vec<&Points> = pts
         .iter()
         .filter(|p| model.channel_index(p.channel).is_none())
         .collect();
-    // the missing channel with the strongest response (in standard errors)
-    let p = missing.into_iter().max_by(|a, b| {
-        let s = |p: &Points| {
-            p.h.iter()
-                .zip(&p.sigma)
-                .map(|(h, s)| (h / s).norm_sqr())
-                .sum::<f64>()
-        };
-        s(a).total_cmp(&s(b))
-    })?;
-    let cm = fit_numerators(&model.modes, p, |_| Complex64::new(0.0, 0.0))?;
+    missing.sort_by(|a, b| strength(b).total_cmp(&strength(a)));
+    let p = *missing.first()?;
+    let fitted: Vec<ChannelModel> = missing
+        .iter()
+        .filter_map(|p| fit_numerators(&model.modes, p, |_| Complex64::new(0.0, 0.0)))
+        .collect();
+    if fitted.first().is_none_or(|c| c.channel != p.channel) {
+        return None;
+    }
     let mut m = model.clone();
-    m.channels.push(cm.clone());
+    m.channels.extend(fitted.iter().cloned());
     let peak_f =
         p.h.iter()
             .zip(&p.freqs_hz)
@@ -1046,16 +1117,20 @@ fn cand_cross_coupling(twin: &Twin, model: &ModalModel, pts: &[Points]) -> Optio
     let ext = {
         let mut t = map_models(twin, |pm| {
             let mut pm = pm.clone();
-            pm.channels.push(cm.clone());
+            pm.channels.extend(fitted.iter().cloned());
             pm
         });
-        t.channels.push(cm.channel);
+        t.channels.extend(fitted.iter().map(|c| c.channel));
         t.channels.sort();
         t
     };
     let mut d = Map::new();
     d.insert("channel".into(), json!(p.channel.name()));
     d.insert("freq_hz".into(), json!(peak_f));
+    d.insert(
+        "channels".into(),
+        json!(fitted.iter().map(|c| c.channel.name()).collect::<Vec<_>>()),
+    );
     Some(Cand {
         cause: Cause::CrossCoupling,
         chi: chi(&m, pts, 0.0),
@@ -1306,6 +1381,17 @@ pub fn diagnose(
             if chi(&m, &p, delay) > opts.chi_none || chi_local(&m, &p, delay) > opts.chi_local {
                 misfit = true;
             }
+        }
+    }
+    // records at clearly different force levels: judge each level against the twin too
+    // (a mode that moves with the force blurs into a weak misfit when the levels pool)
+    for recs in force_levels(&parts) {
+        let Ok(e) = evidence(&recs) else { continue };
+        let mut p = points(&e, band, opts.min_coherence);
+        add_twin_uncertainty(&mut p, twin, pose);
+        let delay = twin.extensions.delay_s.unwrap_or(0.0);
+        if chi(&model, &p, delay) > opts.chi_none || chi_local(&model, &p, delay) > opts.chi_local {
+            misfit = true;
         }
     }
     let fit_before = holdout_fit(twin, &splits)?;

@@ -11,7 +11,7 @@
 //! | `TimeDelay` | responses 2–5 samples late | `delay_s` |
 //! | `Disturbance` | a 600–700 Hz sinusoid on x, 30 % of the response RMS | `freq_hz` |
 //! | `CrossCoupling` | the twin knows x→x only; the data also record y | `channel` |
-//! | `PoseDependence` | the twin has one pose; the data come from two poses ±0.15–0.25 m along x or y | `axis_of_variation`, `freq_shift_pct_per_m` |
+//! | `PoseDependence` | the twin has one pose; the data come from two poses ±0.15–0.25 m along x or y | `axis_of_variation`, `freq_shift_pct_per_m` (per mode) |
 //! | `Nonlinearity` | mode 2 (180 Hz) with a cubic stiffness shifting it 3–5 % (±) at 400 N hits; tests at 40 N and 400 N | `kind` |
 
 use crate::daq::{acquire, impact_record, milling_forces, simulate_machine, Daq};
@@ -201,6 +201,8 @@ pub fn case(effect: Effect, seed: u64, base: &Twin) -> Case {
             let axis = rng.gen_range(0..2usize);
             let span = rng.gen_range(0.15..0.25);
             truth.insert("axis_of_variation".into(), ["x", "y", "z"][axis].into());
+            let rates: Vec<f64> = machine.modes.iter().map(|v| 100.0 * v.grad[axis]).collect();
+            truth.insert("freq_shift_pct_per_m".into(), serde_json::json!(rates));
             let mut recs = Vec::new();
             for (i, d) in [-span, span].iter().enumerate() {
                 let mut p = POSE;
@@ -268,12 +270,10 @@ pub fn milling_tests(
 ) -> Vec<TimeSeries> {
     let daq = Daq::default();
     let fs = daq.fs_sim();
-    let n = (MILL_SECONDS * fs) as usize;
     cuts.iter()
         .enumerate()
         .map(|(i, c)| {
-            let s = seed.wrapping_add(2 * i as u64);
-            let forces = milling_forces(&milling_cut(c), fs, n, MILL_BROADBAND, s);
+            let (forces, s) = cut_forces(c, i, seed);
             let pose = c.pose;
             let resp = match duffing {
                 Some((k, g)) => duffing_response(m, k, g, &forces, fs, pose, &AXES, daq.response),
@@ -292,6 +292,33 @@ pub fn milling_tests(
             )
         })
         .collect()
+}
+
+/// The forces (at the simulation rate) of cut number `i` of [`milling_tests`] and the
+/// seed of its record.
+fn cut_forces(c: &Cut, i: usize, seed: u64) -> ([Option<Vec<f64>>; 3], u64) {
+    let fs = Daq::default().fs_sim();
+    let n = (MILL_SECONDS * fs) as usize;
+    let s = seed.wrapping_add(2 * i as u64);
+    (milling_forces(&milling_cut(c), fs, n, MILL_BROADBAND, s), s)
+}
+
+/// The cubic modal stiffness γ that moves mode `k` by `shift` (relative; negative =
+/// softening) in the most strongly excited of `cuts` (as [`milling_tests`] with `seed`
+/// makes them): statistical linearisation, `ω_eq² = ω²(1 + 3γ E[η²])` with the mode's
+/// linear motion η.
+pub fn duffing_gamma(m: &ModalMachine, k: usize, shift: f64, cuts: &[Cut], seed: u64) -> f64 {
+    let fs = Daq::default().fs_sim();
+    let var = cuts
+        .iter()
+        .enumerate()
+        .map(|(i, c)| {
+            let (f, _) = cut_forces(c, i, seed);
+            let (eta, _) = duffing_motion(m, k, 0.0, &f, fs, c.pose);
+            eta.iter().map(|e| e * e).sum::<f64>() / eta.len().max(1) as f64
+        })
+        .fold(0.0, f64::max);
+    ((1.0 + shift).powi(2) - 1.0) / (3.0 * var.max(1e-300))
 }
 
 fn milling_cut(c: &Cut) -> Milling {
@@ -328,7 +355,7 @@ fn off_harmonics(f: f64, rpms: &[f64], gap: f64) -> bool {
 /// | `Disturbance` | a 560–720 Hz sinusoid on x or y, 30 % of the response RMS, ≥ 4 Hz from every spindle harmonic | `freq_hz` |
 /// | `CrossCoupling` | the twin lacks the cross channels xy, yx | `channel` (a list: either is right) |
 /// | `PoseDependence` | 2 speeds at each of two poses ±0.15–0.25 m along x or y | `axis_of_variation`, `freq_shift_pct_per_m` (per mode) |
-/// | `Nonlinearity` | mode 2 or 4 with a cubic stiffness (±), 2 speeds at 1 mm and at 3 mm depth of cut: 3–5 % shift at 3 mm (statistical linearisation) | `freq_hz`, `kind` |
+/// | `Nonlinearity` | mode 2 or 4 with a cubic stiffness (±), 2 speeds at 1 mm and at 3 mm depth of cut: 3–5 % shift in the cut that moves the mode most ([`duffing_gamma`]) | `freq_hz`, `kind` |
 pub fn milling_case(effect: Effect, seed: u64, base: &Twin) -> Case {
     let machine = ModalMachine::default_machine();
     let mut rng = StdRng::seed_from_u64(seed);
@@ -435,14 +462,7 @@ pub fn milling_case(effect: Effect, seed: u64, base: &Twin) -> Case {
             );
             let mut all = cuts(POSE, 1e-3, 2);
             all.extend(cuts(POSE, 3e-3, 2));
-            // γ from the mode's motion at 3 mm (linear): statistical linearisation
-            // ω_eq² = ω²(1 + 3γσ²) puts the mode `shift` away there
-            let dq = Daq::default();
-            let n = (MILL_SECONDS * dq.fs_sim()) as usize;
-            let hard = milling_forces(&milling_cut(&all[2]), dq.fs_sim(), n, MILL_BROADBAND, 1);
-            let (eta, _) = duffing_motion(&machine, k, 0.0, &hard, dq.fs_sim(), POSE);
-            let var = eta.iter().map(|e| e * e).sum::<f64>() / eta.len().max(1) as f64;
-            let gamma = ((1.0 + shift).powi(2) - 1.0) / (3.0 * var);
+            let gamma = duffing_gamma(&machine, k, shift, &all, fresh);
             (
                 base.clone(),
                 milling_tests(&machine, &all, fresh, Some((k, gamma))),
