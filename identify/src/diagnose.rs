@@ -1425,15 +1425,20 @@ pub fn diagnose(
     }
     // records at clearly different force levels: judge each level against the twin too
     // (a mode that moves with the force blurs into a weak misfit when the levels pool)
+    let mut level_misfit = Vec::new();
     for recs in force_levels(&parts) {
         let Ok(e) = evidence(&recs) else { continue };
         let mut p = points(&e, band, opts.min_coherence);
         add_twin_uncertainty(&mut p, twin, pose);
         let delay = twin.extensions.delay_s.unwrap_or(0.0);
-        if chi(&model, &p, delay) > opts.chi_none || chi_local(&model, &p, delay) > opts.chi_local {
-            misfit = true;
-        }
+        let m =
+            chi(&model, &p, delay) > opts.chi_none || chi_local(&model, &p, delay) > opts.chi_local;
+        misfit |= m;
+        level_misfit.push(m);
     }
+    // the twin explains the light-force data within noise but not the hard-force data:
+    // no linear change of the twin can be the cause
+    let only_hard_misfits = level_misfit == [false, true];
     let fit_before = holdout_fit(twin, &splits)?;
     let holdout = format!(
         "held out: {} (the last {} of each record, from t = {})",
@@ -1507,7 +1512,8 @@ pub fn diagnose(
             num("freq_high_force_hz"),
         );
         let light_matches_twin = (fl - f0).abs() < 0.3 * (fh - fl).abs();
-        let close_to_best = best.is_none_or(|b| s.fit_holdout_pct >= b.1 - opts.min_gain_pct);
+        let close_to_best =
+            only_hard_misfits || best.is_none_or(|b| s.fit_holdout_pct >= b.1 - opts.min_gain_pct);
         let best_is_linear_retune = best
             .is_none_or(|b| matches!(cands[b.0].cause, Cause::ModeChange | Cause::UnmodeledMode));
         if light_matches_twin && close_to_best && best_is_linear_retune {
