@@ -7,8 +7,15 @@
 //!    continuous one) is held out and only used to score.
 //! 2. FRF points are estimated from the building part (per-hit H1 for impact tests,
 //!    multi-input Welch H1 for continuous data) with their standard errors from coherence.
-//!    Their RMS misfit against the twin in standard errors (χ) tells whether the twin
-//!    explains the data within noise: χ below [`DiagnoseOptions::chi_none`] ⇒ `none`.
+//!    Continuous (milling) data: the standard error of each channel accounts for
+//!    correlated inputs (the cutting forces in x and y), and lines dominated by a periodic
+//!    force (tooth-passing and spindle harmonics, with their window leakage) are left
+//!    out — there the estimate is the FRF at the harmonic, not at the line. The twin's
+//!    own uncertainty (its misfit to the FRF it was identified from) is added to every
+//!    point. Their RMS misfit against the twin in standard errors (χ) tells whether the
+//!    twin explains the data within noise: χ below [`DiagnoseOptions::chi_none`] ⇒
+//!    `none`; data at several poses or clearly different force levels are judged per
+//!    group too.
 //! 3. Otherwise each cause proposes the extension it calls for, fitted to the building
 //!    part: retune the dominant changed mode (`mode_change`), add a mode at the largest
 //!    residual peak (`unmodeled_mode`), a constant delay from the phase (`time_delay`), the
@@ -1319,8 +1326,8 @@ fn summary_for(cause: Cause, d: &Map<String, Value>, before: f64, after: f64) ->
             txt("axis_of_variation")
         ),
         Cause::Nonlinearity => format!(
-            "The {:.0} Hz mode is not linear: it sits at {:.1} Hz under light hammer hits and at \
-             {:.1} Hz under hard ones ({}). {} {gain}",
+            "The {:.0} Hz mode is not linear: it sits at {:.1} Hz under light forces (light hits, \
+             shallow cuts) and at {:.1} Hz under heavy ones ({}). {} {gain}",
             num("freq_hz"),
             num("freq_low_force_hz"),
             num("freq_high_force_hz"),
@@ -1329,7 +1336,7 @@ fn summary_for(cause: Cause, d: &Map<String, Value>, before: f64, after: f64) ->
                 "A linear twin cannot follow both force levels, so it was left as it was \
                  (the FMU has no amplitude-dependent term)."
             } else {
-                "The twin was retuned to the hard-hit behaviour (the FMU has no \
+                "The twin was retuned to the heavy-force behaviour (the FMU has no \
                  amplitude-dependent term)."
             }
         ),
@@ -1527,7 +1534,7 @@ pub fn diagnose(
             let mut d = cands[i].details.clone();
             d.insert(
                 "extension".into(),
-                json!("none: the twin linearised at the hard-hit level fits the held-out data worse; an amplitude-dependent term is needed (not in simulate/FMU)"),
+                json!("none: the twin linearised at the heavy-force level fits the held-out data worse; an amplitude-dependent term is needed (not in simulate/FMU)"),
             );
             (Cause::Nonlinearity, d, twin.clone(), fit_before)
         }

@@ -1,5 +1,6 @@
 //! Test data with one hidden effect, its parameters drawn from a seed: what `mtwin
-//! diagnose` must find. Impact tests (hammer along x and y, 5 hits, responses x and y) on
+//! diagnose` must find. [`case`]: impact tests; [`milling_case`]: milling records (its
+//! own table). Impact tests (hammer along x and y, 5 hits, responses x and y) on
 //! [`ModalMachine::default_machine`] at the workspace centre, against a twin identified
 //! from clean tests there ([`base_twin`]).
 //!
