@@ -27,6 +27,11 @@ pub struct OperatingSpectra {
     pub psd_out: Vec<(Axis, Vec<f64>)>,
     /// Force PSD (N²/Hz) per input and line.
     pub psd_in: Vec<(Axis, Vec<f64>)>,
+    /// Standard error of each H point per channel and line (same order as `h`):
+    /// `sqrt((1 − γ²) G_yy [G_ff⁻¹]_jj / (2 n))` per real component — with correlated
+    /// inputs (the cutting forces in x and y) larger than the single-input value of
+    /// [`OperatingSpectra::rel_error`].
+    pub sigma: Vec<(Channel, Vec<f64>)>,
     /// Number of averaged segments.
     pub n_avg: usize,
     /// Line spacing \[Hz\].
@@ -149,6 +154,10 @@ pub fn operating_spectra(records: &[TimeSeries], nfft: usize) -> Result<Operatin
             h.push((Channel::new(o, i), Vec::with_capacity(nl - 1)));
         }
     }
+    let mut sigma: Vec<(Channel, Vec<f64>)> = h
+        .iter()
+        .map(|(c, _)| (*c, Vec::with_capacity(nl - 1)))
+        .collect();
     let mut coh: Vec<(Axis, Vec<f64>)> = outputs.iter().map(|a| (*a, Vec::new())).collect();
     let mut pout: Vec<(Axis, Vec<f64>)> = outputs.iter().map(|a| (*a, Vec::new())).collect();
     let mut pin: Vec<(Axis, Vec<f64>)> = inputs.iter().map(|a| (*a, Vec::new())).collect();
@@ -171,14 +180,19 @@ pub fn operating_spectra(records: &[TimeSeries], nfft: usize) -> Result<Operatin
             // multiple coherence: H Gfy / Gyy
             let explained: Complex64 = (0..ni).map(|j| hrow[(0, j)] * row[(0, j)].conj()).sum();
             let gy = gyy[l * no + o];
-            coh[o].1.push(if gy > 0.0 {
+            let g2 = if gy > 0.0 {
                 (explained.re / gy).clamp(0.0, 1.0)
             } else {
                 0.0
-            });
+            };
+            coh[o].1.push(g2);
             pout[o].1.push(gy * norm * conv * conv);
             for j in 0..ni {
                 h[o * ni + j].1.push(hrow[(0, j)] * conv);
+                let var = ginv.as_ref().map_or(f64::INFINITY, |gi| {
+                    (1.0 - g2) * gy * gi[(j, j)].re.max(0.0) / (2.0 * n_avg as f64)
+                });
+                sigma[o * ni + j].1.push(var.sqrt() * conv.abs());
             }
         }
     }
@@ -190,6 +204,7 @@ pub fn operating_spectra(records: &[TimeSeries], nfft: usize) -> Result<Operatin
         coherence: coh,
         psd_out: pout,
         psd_in: pin,
+        sigma,
         n_avg,
         df_hz: df,
     })

@@ -570,7 +570,7 @@ fn fit_percent_is_scale_free_and_never_nan() {
 
 #[test]
 fn twin_extensions_out_of_range_are_refused_with_the_field_named() {
-    use identify::twin::{CubicStiffness, Twin};
+    use identify::twin::CubicStiffness;
     let twin = vmachine::structure::ModalMachine::default_machine()
         .exact_twin([2, 1, 1], &[Axis::X, Axis::Y]);
     let n = twin.poses[0].model.modes.len();

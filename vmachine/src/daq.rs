@@ -285,6 +285,24 @@ pub fn impact_campaign(
     out
 }
 
+/// The forces of a milling record at the simulation rate `fs`, `n` samples: the
+/// mechanistic force of `cut` (Fx, Fy) plus a broadband share (standard deviation
+/// `broadband` relative to the cutting force's RMS, drawn from `seed`).
+pub fn milling_forces(
+    cut: &Milling,
+    fs: f64,
+    n: usize,
+    broadband: f64,
+    seed: u64,
+) -> [Option<Vec<f64>>; 3] {
+    let (mut fx, mut fy) = cut.forces(fs, n, 0.0);
+    let nx = noise(n, broadband * rms(&fx), seed);
+    let ny = noise(n, broadband * rms(&fy), seed.wrapping_add(1));
+    fx.iter_mut().zip(&nx).for_each(|(a, b)| *a += b);
+    fy.iter_mut().zip(&ny).for_each(|(a, b)| *a += b);
+    [Some(fx), Some(fy), None]
+}
+
 /// A milling record: the mechanistic force of `cut` (Fx, Fy) plus a broadband share
 /// (standard deviation `broadband` relative to the cutting force's RMS), `duration`
 /// seconds, the axes following `pose_at`, responses along x and y.
@@ -298,13 +316,7 @@ pub fn milling_record(
     seed: u64,
 ) -> TimeSeries {
     let fs = daq.fs_sim();
-    let n = (duration * fs) as usize;
-    let (mut fx, mut fy) = cut.forces(fs, n, 0.0);
-    let nx = noise(n, broadband * rms(&fx), seed);
-    let ny = noise(n, broadband * rms(&fy), seed.wrapping_add(1));
-    fx.iter_mut().zip(&nx).for_each(|(a, b)| *a += b);
-    fy.iter_mut().zip(&ny).for_each(|(a, b)| *a += b);
-    let forces = [Some(fx), Some(fy), None];
+    let forces = milling_forces(cut, fs, (duration * fs) as usize, broadband, seed);
     let resp = simulate_machine(
         machine,
         &forces,

@@ -9,8 +9,9 @@
 //! * [`chain::MdofChain`] — a physical mass–spring–damper chain (the paper's 3-DoF
 //!   example), analytic FRF `(K − ω²M + iωC)⁻¹`, exact state-space simulation;
 //! * [`excitation`] — impact hammer hits, chirps, random noise, mechanistic milling forces;
-//! * [`hidden`] — impact data hiding one effect (worn mode, new mode, delay, outside
-//!   vibration, missing cross channel, pose dependence) drawn from a seed, for `diagnose`;
+//! * [`hidden`] — impact or milling data hiding one effect (worn mode, new mode, delay,
+//!   outside vibration, missing cross channel, pose dependence, cubic stiffness) drawn
+//!   from a seed, for `diagnose`;
 //! * [`daq`] — simulation at a high rate, one linear-phase anti-alias FIR applied to
 //!   every channel, decimation, sensor noise: a [`identify::timeseries::TimeSeries`] like
 //!   a real data-acquisition system records.
