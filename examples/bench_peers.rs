@@ -163,6 +163,9 @@ fn case_b(dir: &Path) -> Res<Value> {
     let r = fit_frf(&frf, &opts)?;
     let band = (freqs[0], freqs[freqs.len() - 1]);
     let fit = worst_fit(&r.model, &truth, band);
+    if std::env::var_os("MTWIN_BENCH_VERBOSE").is_some() {
+        eprintln!("{}", r.report);
+    }
     let ms = median_ms(7, || fit_frf(&frf, &opts));
     println!(
         "b. 8 modes, 2 channels, 2000 lines: {} modes, fit {fit:.3} %, {ms:.1} ms",
@@ -227,6 +230,9 @@ fn case_c(dir: &Path) -> Res<Value> {
     };
     let r = fit_frf(&frf, &opts)?;
     let fit = worst_fit(&r.model, &truth, band);
+    if std::env::var_os("MTWIN_BENCH_VERBOSE").is_some() {
+        eprintln!("{}", r.report);
+    }
     let ms = median_ms(7, || fit_frf(&frf, &opts));
     println!(
         "c. paper 3-DoF chain ({} lines): {} modes, fit {fit:.3} %, {ms:.1} ms",
@@ -424,6 +430,20 @@ fn main() -> Res<()> {
         .num_threads(1)
         .build_global()?;
     let machine = ModalMachine::default_machine();
+    // MTWIN_BENCH_ONLY=a|b|c|d|e|f: run one case only (for profiling; no cases.json)
+    if let Ok(only) = std::env::var("MTWIN_BENCH_ONLY") {
+        let v = match only.as_str() {
+            "a" => case_a(&dir, &machine)?,
+            "b" => case_b(&dir)?,
+            "c" => case_c(&dir)?,
+            "d" => case_d(&dir, &machine)?,
+            "e" => case_e(&machine)?,
+            "f" => case_f(&dir, &machine)?,
+            other => return Err(format!("MTWIN_BENCH_ONLY={other}: expected a..f").into()),
+        };
+        println!("{}", serde_json::to_string(&v["mtwin"])?);
+        return Ok(());
+    }
     let out = json!({
         "a_frf": case_a(&dir, &machine)?,
         "b_fit": case_b(&dir)?,

@@ -6,10 +6,11 @@
 //! `s/den_k(s)`, `1/den_k(s)`, `1`; its residual `r = (I − QQᵀ) y` depends on the modes
 //! only. The Jacobian of `r` with respect to one mode parameter is approximated by
 //! `−(I − QQᵀ) (∂A/∂θ) x`, which keeps the exact Gauss–Newton direction at the optimum
-//! and needs one QR per channel per iteration.
+//! and needs one QR per channel per iteration — or, when the channel's design matrix is
+//! well conditioned, one Gram matrix (see `linalg`), about five times cheaper.
 
 use super::data::Prepared;
-use super::linalg::lstsq;
+use super::linalg::{lstsq, ScaledGram};
 use crate::model::Mode;
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
@@ -30,27 +31,82 @@ pub(crate) struct Solved {
 /// The real-form design matrix and weighted data of one channel (rows of lines with
 /// positive weight: real parts then imaginary parts interleaved).
 fn design(p: &Prepared, ci: usize, modes: &[Mode]) -> (DMatrix<f64>, DVector<f64>, Vec<usize>) {
+    let (a, _, y, lines) = design_both(p, ci, modes, false);
+    (a, y, lines)
+}
+
+/// [`design`] and, when `with_t`, the transposed design matrix written alongside (the
+/// Gram products need it; transposing the tall matrix afterwards costs more).
+fn design_both(
+    p: &Prepared,
+    ci: usize,
+    modes: &[Mode],
+    with_t: bool,
+) -> (DMatrix<f64>, DMatrix<f64>, DVector<f64>, Vec<usize>) {
     let lines: Vec<usize> = (0..p.n_lines()).filter(|&k| p.w[ci][k] > 0.0).collect();
     let m = 2 * modes.len() + 1;
-    let mut a = DMatrix::<f64>::zeros(2 * lines.len(), m);
-    let mut y = DVector::<f64>::zeros(2 * lines.len());
+    let rows = 2 * lines.len();
+    let mut a = DMatrix::<f64>::zeros(rows, m);
+    let mut at = DMatrix::<f64>::zeros(if with_t { m } else { 0 }, if with_t { rows } else { 0 });
+    let mut y = DVector::<f64>::zeros(rows);
+    let mut put = |r: usize, c: usize, v: f64| {
+        a[(r, c)] = v;
+        if with_t {
+            at[(c, r)] = v;
+        }
+    };
     for (i, &k) in lines.iter().enumerate() {
         let w = p.w[ci][k];
         let s = p.s[k];
         for (j, md) in modes.iter().enumerate() {
             let inv = w / md.den(s);
             let v1 = s * inv;
-            a[(2 * i, 2 * j)] = v1.re;
-            a[(2 * i + 1, 2 * j)] = v1.im;
-            a[(2 * i, 2 * j + 1)] = inv.re;
-            a[(2 * i + 1, 2 * j + 1)] = inv.im;
+            put(2 * i, 2 * j, v1.re);
+            put(2 * i + 1, 2 * j, v1.im);
+            put(2 * i, 2 * j + 1, inv.re);
+            put(2 * i + 1, 2 * j + 1, inv.im);
         }
-        a[(2 * i, m - 1)] = w;
+        put(2 * i, m - 1, w);
         let hw = p.h[ci][k] * w;
         y[2 * i] = hw.re;
         y[2 * i + 1] = hw.im;
     }
-    (a, y, lines)
+    (a, at, y, lines)
+}
+
+/// `V = (∂A/∂θ) x` of one channel and its transpose: two columns per mode (`ln ω`,
+/// `ln ζ`), rows as in [`design`].
+fn derivatives(
+    p: &Prepared,
+    ci: usize,
+    modes: &[Mode],
+    lines: &[usize],
+    x: &[f64],
+) -> (DMatrix<f64>, DMatrix<f64>) {
+    let np = 2 * modes.len();
+    let mut v = DMatrix::<f64>::zeros(2 * lines.len(), np);
+    let mut vt = DMatrix::<f64>::zeros(np, 2 * lines.len());
+    let mut put = |r: usize, c: usize, val: f64| {
+        v[(r, c)] = val;
+        vt[(c, r)] = val;
+    };
+    for (i, &k) in lines.iter().enumerate() {
+        let w = p.w[ci][k];
+        let s = p.s[k];
+        for (j, md) in modes.iter().enumerate() {
+            let den = md.den(s);
+            let num = s * x[2 * j] + x[2 * j + 1];
+            let g = -(num * w) / (den * den);
+            // ∂den/∂ln ω = ω (2ζ s + 2ω), ∂den/∂ln ζ = 2ζω s
+            let d_w = g * ((s * (2.0 * md.zeta) + 2.0 * md.wn) * md.wn);
+            let d_z = g * (s * (2.0 * md.zeta * md.wn));
+            put(2 * i, 2 * j, d_w.re);
+            put(2 * i + 1, 2 * j, d_w.im);
+            put(2 * i, 2 * j + 1, d_z.re);
+            put(2 * i + 1, 2 * j + 1, d_z.im);
+        }
+    }
+    (v, vt)
 }
 
 /// Numerators for fixed modes (linear least squares per channel) and the cost.
@@ -75,6 +131,90 @@ pub(crate) fn solve_linear(p: &Prepared, modes: &[Mode]) -> Option<Solved> {
     })
 }
 
+/// One channel's part of [`evaluate`]: numerators `x`, cost, `JᵀJ`, `Jᵀr`.
+type ChannelSystem = (Vec<f64>, f64, DMatrix<f64>, DVector<f64>);
+
+/// [`evaluate`] for one channel through the Gram matrix (normal equations with one
+/// refinement step): `Jᵀr = −Vᵀr` (the residual is orthogonal to the range of A) and
+/// `JᵀJ = VᵀV − (L⁻¹ D⁻¹ AᵀV)ᵀ(L⁻¹ D⁻¹ AᵀV)`. `None` when the design matrix is too
+/// ill-conditioned for it or the projected Jacobian loses its precision to cancellation.
+fn channel_gram(
+    p: &Prepared,
+    ci: usize,
+    modes: &[Mode],
+    a: &DMatrix<f64>,
+    at: &DMatrix<f64>,
+    y: &DVector<f64>,
+    lines: &[usize],
+) -> Option<ChannelSystem> {
+    let g = ScaledGram::new(a, at)?;
+    let (x, r) = g.solve(a, at, y);
+    let x: Vec<f64> = x.iter().copied().collect();
+    if x.iter().any(|v| !v.is_finite()) {
+        return None;
+    }
+    let (v, vt) = derivatives(p, ci, modes, lines, &x);
+    let vtv = &vt * &v;
+    let mut b = at * &v;
+    for (i, d) in g.d.iter().enumerate() {
+        b.row_mut(i).unscale_mut(*d);
+    }
+    let z = g.chol.l().solve_lower_triangular(&b)?;
+    let jtj = &vtv - z.transpose() * &z;
+    // the projected part must keep a fair share of every derivative column
+    if (0..jtj.nrows()).any(|i| !(jtj[(i, i)] >= 1e-6 * vtv[(i, i)])) {
+        return None;
+    }
+    let jtr = -(&vt * &r);
+    Some((x, r.norm_squared(), jtj, jtr))
+}
+
+/// [`evaluate`] for one channel through the Householder QR of the column-scaled design
+/// matrix (the robust path).
+fn channel_qr(
+    p: &Prepared,
+    ci: usize,
+    modes: &[Mode],
+    a: DMatrix<f64>,
+    y: &DVector<f64>,
+    lines: &[usize],
+) -> Option<ChannelSystem> {
+    let m = a.ncols();
+    let np = 2 * modes.len();
+    // column scaling for the QR, undone on x
+    let mut asc = a;
+    let mut cs = vec![1.0; m];
+    for (j, c) in cs.iter_mut().enumerate() {
+        let nrm = asc.column(j).norm();
+        if nrm > 0.0 && nrm.is_finite() {
+            *c = 1.0 / nrm;
+            asc.column_mut(j).scale_mut(*c);
+        }
+    }
+    let qr = asc.qr();
+    let mut qty = y.clone();
+    qr.q_tr_mul(&mut qty);
+    let r = qr.r();
+    let xs = r.solve_upper_triangular(&qty.rows(0, m).into_owned())?;
+    let x: Vec<f64> = xs.iter().zip(&cs).map(|(v, c)| v * c).collect();
+    if x.iter().any(|v| !v.is_finite()) {
+        return None;
+    }
+    // [V | y]: applying the QR's reflections gives, below row m, the parts orthogonal
+    // to the range of A: P V and P y = r (no explicit Q).
+    let n_rows = y.len();
+    let mut vy = DMatrix::<f64>::zeros(n_rows, np + 1);
+    vy.columns_mut(0, np)
+        .copy_from(&derivatives(p, ci, modes, lines, &x).0);
+    vy.column_mut(np).copy_from(y);
+    qr.q_tr_mul(&mut vy);
+    let tail = vy.rows(m, n_rows - m);
+    let pv = tail.columns(0, np);
+    let res = tail.column(np);
+    // J = -PV, Jᵀr = -(PV)ᵀ r
+    Some((x, res.norm_squared(), pv.tr_mul(&pv), -pv.tr_mul(&res)))
+}
+
 /// Cost, coefficients, and the Gauss–Newton system `(JᵀJ, Jᵀr)` at `modes`.
 fn evaluate(p: &Prepared, modes: &[Mode]) -> Option<(Solved, DMatrix<f64>, DVector<f64>)> {
     let n = modes.len();
@@ -84,61 +224,19 @@ fn evaluate(p: &Prepared, modes: &[Mode]) -> Option<(Solved, DMatrix<f64>, DVect
     let mut coefs = Vec::with_capacity(p.channels.len());
     let mut cost = 0.0;
     for ci in 0..p.channels.len() {
-        let (a, y, lines) = design(p, ci, modes);
+        let (a, at, y, lines) = design_both(p, ci, modes, true);
         let m = a.ncols();
         if a.nrows() < m {
             coefs.push(vec![0.0; m]);
             continue;
         }
-        // column scaling for the QR, undone on x
-        let mut asc = a;
-        let mut cs = vec![1.0; m];
-        for (j, c) in cs.iter_mut().enumerate() {
-            let nrm = asc.column(j).norm();
-            if nrm > 0.0 && nrm.is_finite() {
-                *c = 1.0 / nrm;
-                asc.column_mut(j).scale_mut(*c);
-            }
-        }
-        let qr = asc.qr();
-        // V = (∂A/∂θ) x, two columns per mode; the last column holds y. Applying the
-        // QR's reflections to [V | y] gives, below row m, the parts orthogonal to the
-        // range of A: P V and P y = r (no explicit Q).
-        let n_rows = y.len();
-        let mut vy = DMatrix::<f64>::zeros(n_rows, np + 1);
-        vy.column_mut(np).copy_from(&y);
-        let mut qty = y.clone();
-        qr.q_tr_mul(&mut qty);
-        let r = qr.r();
-        let xs = r.solve_upper_triangular(&qty.rows(0, m).into_owned())?;
-        let x: Vec<f64> = xs.iter().zip(&cs).map(|(v, c)| v * c).collect();
-        if x.iter().any(|v| !v.is_finite()) {
-            return None;
-        }
-        for (i, &k) in lines.iter().enumerate() {
-            let w = p.w[ci][k];
-            let s = p.s[k];
-            for (j, md) in modes.iter().enumerate() {
-                let den = md.den(s);
-                let num = s * x[2 * j] + x[2 * j + 1];
-                let g = -(num * w) / (den * den);
-                // ∂den/∂ln ω = ω (2ζ s + 2ω), ∂den/∂ln ζ = 2ζω s
-                let d_w = g * ((s * (2.0 * md.zeta) + 2.0 * md.wn) * md.wn);
-                let d_z = g * (s * (2.0 * md.zeta * md.wn));
-                vy[(2 * i, 2 * j)] = d_w.re;
-                vy[(2 * i + 1, 2 * j)] = d_w.im;
-                vy[(2 * i, 2 * j + 1)] = d_z.re;
-                vy[(2 * i + 1, 2 * j + 1)] = d_z.im;
-            }
-        }
-        qr.q_tr_mul(&mut vy);
-        let tail = vy.rows(m, n_rows - m);
-        let pv = tail.columns(0, np);
-        let res = tail.column(np);
-        cost += res.norm_squared();
-        jtj += pv.tr_mul(&pv);
-        // J = -PV, Jᵀr = -(PV)ᵀ r
-        jtr -= pv.tr_mul(&res);
+        let (x, c, j2, r2) = match channel_gram(p, ci, modes, &a, &at, &y, &lines) {
+            Some(sys) => sys,
+            None => channel_qr(p, ci, modes, a, &y, &lines)?,
+        };
+        cost += c;
+        jtj += j2;
+        jtr += r2;
         coefs.push(x);
     }
     Some((

@@ -9,7 +9,7 @@
 //! `1/(s−p) + 1/(s−p̄)` and `j/(s−p) − j/(s−p̄)`.
 
 use super::data::Prepared;
-use super::linalg::lstsq;
+use super::linalg::{lstsq, trailing_r};
 use crate::model::Mode;
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
@@ -99,31 +99,41 @@ fn step(p: &Prepared, poles: &[Complex64]) -> Option<Vec<Complex64>> {
         if lines.is_empty() {
             continue;
         }
-        let mut a = DMatrix::<f64>::zeros(2 * lines.len(), 2 * m);
+        // the design matrix and its transpose (rows contiguous, for the Gram product),
+        // both written here: transposing a tall matrix afterwards costs more
+        let rows = 2 * lines.len();
+        let mut a = DMatrix::<f64>::zeros(rows, 2 * m);
+        let mut at = DMatrix::<f64>::zeros(2 * m, rows);
+        let mut put = |r: usize, c: usize, v: f64| {
+            a[(r, c)] = v;
+            at[(c, r)] = v;
+        };
         for (i, &k) in lines.iter().enumerate() {
             let w = p.w[ci][k];
             let h = p.h[ci][k];
             for (j, f) in phis[k].iter().enumerate() {
                 let v = f * w;
-                a[(2 * i, j)] = v.re;
-                a[(2 * i + 1, j)] = v.im;
+                put(2 * i, j, v.re);
+                put(2 * i + 1, j, v.im);
                 let u = -(f * h) * w;
-                a[(2 * i, m + j)] = u.re;
-                a[(2 * i + 1, m + j)] = u.im;
+                put(2 * i, m + j, u.re);
+                put(2 * i + 1, m + j, u.im);
             }
-            a[(2 * i, nb)] = w;
+            put(2 * i, nb, w);
             let u = -h * w;
-            a[(2 * i, m + nb)] = u.re;
-            a[(2 * i + 1, m + nb)] = u.im;
+            put(2 * i, m + nb, u.re);
+            put(2 * i + 1, m + nb, u.im);
             relax_scale += (h * w).norm_sqr();
         }
         if a.nrows() < 2 * m {
             // too few lines in this channel for its own unknowns: skip it for σ
             continue;
         }
-        let r = a.qr().r();
-        big.view_mut((row, 0), (m, m))
-            .copy_from(&r.view((m, m), (m, m)));
+        // only the σ block of R is needed: from the Gram matrix when it is well
+        // conditioned (about 5x faster), else from the Householder QR
+        let r22 =
+            trailing_r(&a, &at, m).unwrap_or_else(|| a.qr().r().view((m, m), (m, m)).into_owned());
+        big.view_mut((row, 0), (m, m)).copy_from(&r22);
         row += m;
     }
     if row == 0 {
