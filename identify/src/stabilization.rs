@@ -250,12 +250,47 @@ pub fn diagram(
         good[k] && (k == 0 || good[k - 1])
     };
 
+    // The reduced normal matrix of order o (size q = o + 1) is Σ_c T_q − S_qᵀ R_q⁻¹ S_q
+    // over the leading q×q blocks. With the Cholesky factor R = L Lᵀ of the full block,
+    // L_q is the leading block of L and L_q⁻¹ S_q the leading block of Z = L⁻¹ S, so
+    // S_qᵀ R_q⁻¹ S_q = Σ_{i<q} (row i of Z)ᵀ(row i of Z) on the leading columns: one
+    // factorisation per channel and rank-one updates as the order grows (O(n³) instead
+    // of a factorisation per order, O(n⁴)). A channel whose full block is not positive
+    // definite (few lines, high orders) is reduced order by order as before.
+    let mut acc = DMatrix::<f64>::zeros(n + 1, n + 1);
+    let mut nested: Vec<DMatrix<f64>> = Vec::new();
+    let mut per_order: Vec<&(DMatrix<f64>, DMatrix<f64>, DMatrix<f64>)> = Vec::new();
+    for blk in &blocks {
+        let (rr, ss, tt) = blk;
+        match rr.clone().cholesky() {
+            Some(chol) => match chol.l().solve_lower_triangular(ss) {
+                Some(z) if z.iter().all(|v| v.is_finite()) => {
+                    acc += tt;
+                    nested.push(z);
+                }
+                _ => per_order.push(blk),
+            },
+            None => per_order.push(blk),
+        }
+    }
+    let mut rows_done = 0usize;
+
     let mut orders: Vec<OrderPoles> = Vec::new();
     let mut next_chain = 0usize;
     for order in (2..=n).step_by(2) {
         let q = order + 1;
+        while rows_done < q {
+            for z in &nested {
+                let row = z.row(rows_done);
+                acc -= row.transpose() * row;
+            }
+            rows_done += 1;
+        }
         m_red.fill(0.0);
-        for (rr, ss, tt) in &blocks {
+        m_red
+            .view_mut((0, 0), (q, q))
+            .copy_from(&acc.view((0, 0), (q, q)));
+        for &(rr, ss, tt) in &per_order {
             let r = rr.view((0, 0), (q, q)).into_owned();
             let s = ss.view((0, 0), (q, q)).into_owned();
             let t = tt.view((0, 0), (q, q));

@@ -13,6 +13,52 @@
 //! result carries a relative error below about `1e-15 / MIN_PIVOT²` = 1e-7.
 
 use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
+use std::cell::RefCell;
+
+/// Buffers the fitting loops hand back for reuse (per thread, at most [`POOL_SIZE`]).
+/// The loops build tall matrices of a few MB many times; fresh allocations of that size
+/// go to the operating system each time (page faults cost as much as the arithmetic).
+const POOL_SIZE: usize = 8;
+
+thread_local! {
+    static POOL: RefCell<Vec<Vec<f64>>> = const { RefCell::new(Vec::new()) };
+}
+
+/// A zero `rows × cols` matrix, its buffer taken from this thread's pool when one is
+/// large enough.
+pub(crate) fn pooled_zeros(rows: usize, cols: usize) -> DMatrix<f64> {
+    let n = rows * cols;
+    let mut v = POOL
+        .with(|p| {
+            let mut p = p.borrow_mut();
+            let best = (0..p.len())
+                .filter(|&i| p[i].capacity() >= n)
+                .min_by_key(|&i| p[i].capacity());
+            best.map(|i| p.swap_remove(i))
+        })
+        .unwrap_or_default();
+    v.clear();
+    v.resize(n, 0.0);
+    DMatrix::from_vec(rows, cols, v)
+}
+
+/// Hands the buffer of `m` back to this thread's pool (dropped when the pool is full).
+pub(crate) fn release(m: DMatrix<f64>) {
+    let v: Vec<f64> = m.data.into();
+    if v.capacity() < 4096 {
+        return;
+    }
+    POOL.with(|p| {
+        let mut p = p.borrow_mut();
+        if p.len() < POOL_SIZE {
+            p.push(v);
+        } else if let Some(i) = (0..p.len()).min_by_key(|&i| p[i].capacity()) {
+            if p[i].capacity() < v.capacity() {
+                p[i] = v;
+            }
+        }
+    });
+}
 
 /// Smallest pivot of the column-scaled Cholesky factor for which the Gram shortcuts are
 /// used (about the reciprocal condition number of the scaled matrix).

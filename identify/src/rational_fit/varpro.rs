@@ -10,7 +10,7 @@
 //! well conditioned, one Gram matrix (see `linalg`), about five times cheaper.
 
 use super::data::Prepared;
-use super::linalg::{lstsq, ScaledGram};
+use super::linalg::{lstsq, pooled_zeros, release, ScaledGram};
 use crate::model::Mode;
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
@@ -29,14 +29,9 @@ pub(crate) struct Solved {
 }
 
 /// The real-form design matrix and weighted data of one channel (rows of lines with
-/// positive weight: real parts then imaginary parts interleaved).
-fn design(p: &Prepared, ci: usize, modes: &[Mode]) -> (DMatrix<f64>, DVector<f64>, Vec<usize>) {
-    let (a, _, y, lines) = design_both(p, ci, modes, false);
-    (a, y, lines)
-}
-
-/// [`design`] and, when `with_t`, the transposed design matrix written alongside (the
-/// Gram products need it; transposing the tall matrix afterwards costs more).
+/// positive weight: real parts then imaginary parts interleaved) and, when `with_t`,
+/// the transposed design matrix written alongside (the Gram products need it;
+/// transposing the tall matrix afterwards costs more).
 fn design_both(
     p: &Prepared,
     ci: usize,
@@ -46,8 +41,12 @@ fn design_both(
     let lines: Vec<usize> = (0..p.n_lines()).filter(|&k| p.w[ci][k] > 0.0).collect();
     let m = 2 * modes.len() + 1;
     let rows = 2 * lines.len();
-    let mut a = DMatrix::<f64>::zeros(rows, m);
-    let mut at = DMatrix::<f64>::zeros(if with_t { m } else { 0 }, if with_t { rows } else { 0 });
+    let mut a = pooled_zeros(rows, m);
+    let mut at = if with_t {
+        pooled_zeros(m, rows)
+    } else {
+        DMatrix::zeros(0, 0)
+    };
     let mut y = DVector::<f64>::zeros(rows);
     let mut put = |r: usize, c: usize, v: f64| {
         a[(r, c)] = v;
@@ -75,7 +74,7 @@ fn design_both(
 }
 
 /// `V = (∂A/∂θ) x` of one channel and its transpose: two columns per mode (`ln ω`,
-/// `ln ζ`), rows as in [`design`].
+/// `ln ζ`), rows as in [`design_both`].
 fn derivatives(
     p: &Prepared,
     ci: usize,
@@ -84,8 +83,8 @@ fn derivatives(
     x: &[f64],
 ) -> (DMatrix<f64>, DMatrix<f64>) {
     let np = 2 * modes.len();
-    let mut v = DMatrix::<f64>::zeros(2 * lines.len(), np);
-    let mut vt = DMatrix::<f64>::zeros(np, 2 * lines.len());
+    let mut v = pooled_zeros(2 * lines.len(), np);
+    let mut vt = pooled_zeros(np, 2 * lines.len());
     let mut put = |r: usize, c: usize, val: f64| {
         v[(r, c)] = val;
         vt[(c, r)] = val;
@@ -114,13 +113,27 @@ pub(crate) fn solve_linear(p: &Prepared, modes: &[Mode]) -> Option<Solved> {
     let mut coefs = Vec::with_capacity(p.channels.len());
     let mut cost = 0.0;
     for ci in 0..p.channels.len() {
-        let (a, y, _) = design(p, ci, modes);
+        let (a, at, y, _) = design_both(p, ci, modes, true);
         if a.nrows() == 0 {
             coefs.push(vec![0.0; a.ncols()]);
             continue;
         }
-        let x = lstsq(&a, &y)?;
-        cost += (&y - &a * &x).norm_squared();
+        let gram = if a.nrows() >= a.ncols() {
+            ScaledGram::new(&a, &at).map(|g| g.solve(&a, &at, &y))
+        } else {
+            None
+        };
+        let (x, r) = match gram {
+            Some((x, r)) if x.iter().all(|v| v.is_finite()) => (x, r),
+            _ => {
+                let x = lstsq(&a, &y)?;
+                let r = &y - &a * &x;
+                (x, r)
+            }
+        };
+        release(a);
+        release(at);
+        cost += r.norm_squared();
         coefs.push(x.iter().copied().collect());
     }
     Some(Solved {
@@ -166,6 +179,8 @@ fn channel_gram(
         return None;
     }
     let jtr = -(&vt * &r);
+    release(v);
+    release(vt);
     Some((x, r.norm_squared(), jtj, jtr))
 }
 
@@ -204,8 +219,10 @@ fn channel_qr(
     // to the range of A: P V and P y = r (no explicit Q).
     let n_rows = y.len();
     let mut vy = DMatrix::<f64>::zeros(n_rows, np + 1);
-    vy.columns_mut(0, np)
-        .copy_from(&derivatives(p, ci, modes, lines, &x).0);
+    let (v, vt) = derivatives(p, ci, modes, lines, &x);
+    vy.columns_mut(0, np).copy_from(&v);
+    release(v);
+    release(vt);
     vy.column_mut(np).copy_from(y);
     qr.q_tr_mul(&mut vy);
     let tail = vy.rows(m, n_rows - m);
@@ -231,8 +248,15 @@ fn evaluate(p: &Prepared, modes: &[Mode]) -> Option<(Solved, DMatrix<f64>, DVect
             continue;
         }
         let (x, c, j2, r2) = match channel_gram(p, ci, modes, &a, &at, &y, &lines) {
-            Some(sys) => sys,
-            None => channel_qr(p, ci, modes, a, &y, &lines)?,
+            Some(sys) => {
+                release(a);
+                release(at);
+                sys
+            }
+            None => {
+                release(at);
+                channel_qr(p, ci, modes, a, &y, &lines)?
+            }
         };
         cost += c;
         jtj += j2;

@@ -9,7 +9,7 @@
 //! `1/(s−p) + 1/(s−p̄)` and `j/(s−p) − j/(s−p̄)`.
 
 use super::data::Prepared;
-use super::linalg::{lstsq, trailing_r};
+use super::linalg::{lstsq, pooled_zeros, release, trailing_r};
 use crate::model::Mode;
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
@@ -102,8 +102,8 @@ fn step(p: &Prepared, poles: &[Complex64]) -> Option<Vec<Complex64>> {
         // the design matrix and its transpose (rows contiguous, for the Gram product),
         // both written here: transposing a tall matrix afterwards costs more
         let rows = 2 * lines.len();
-        let mut a = DMatrix::<f64>::zeros(rows, 2 * m);
-        let mut at = DMatrix::<f64>::zeros(2 * m, rows);
+        let mut a = pooled_zeros(rows, 2 * m);
+        let mut at = pooled_zeros(2 * m, rows);
         let mut put = |r: usize, c: usize, v: f64| {
             a[(r, c)] = v;
             at[(c, r)] = v;
@@ -131,8 +131,14 @@ fn step(p: &Prepared, poles: &[Complex64]) -> Option<Vec<Complex64>> {
         }
         // only the σ block of R is needed: from the Gram matrix when it is well
         // conditioned (about 5x faster), else from the Householder QR
-        let r22 =
-            trailing_r(&a, &at, m).unwrap_or_else(|| a.qr().r().view((m, m), (m, m)).into_owned());
+        let r22 = match trailing_r(&a, &at, m) {
+            Some(r) => {
+                release(a);
+                r
+            }
+            None => a.qr().r().view((m, m), (m, m)).into_owned(),
+        };
+        release(at);
         big.view_mut((row, 0), (m, m)).copy_from(&r22);
         row += m;
     }
