@@ -43,6 +43,17 @@ pub struct OeSummary {
     pub force_noise: Vec<f64>,
 }
 
+impl OeSummary {
+    /// The force noise floors as text for reports: `"1.2 %, 0.8 %"`.
+    pub fn force_noise_text(&self) -> String {
+        self.force_noise
+            .iter()
+            .map(|v| format!("{:.1} %", 100.0 * v))
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+}
+
 impl OeResult {
     /// The figures without the model.
     pub fn summary(&self) -> OeSummary {

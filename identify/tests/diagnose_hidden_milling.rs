@@ -59,6 +59,11 @@ fn assert_close(k: &str, got: f64, want: f64, rel: f64) {
     );
 }
 
+/// The diagnosis reports `k` within `rel` of the hidden truth's `k`.
+fn assert_same(d: &Diagnosis, c: &Case, k: &str, rel: f64) {
+    assert_close(k, num(&d.details, k), num(&c.truth, k), rel);
+}
+
 fn assert_gain(d: &Diagnosis) {
     assert!(
         d.fit_after_pct > d.fit_before_pct,
@@ -77,40 +82,15 @@ fn milling_none_stays_none_and_modes_are_found_with_their_numbers() {
     // a worn mode (which one, how much: from the seed)
     let (c, d, _) = run(Effect::ModeChange, SEED_MODE_CHANGE);
     assert_eq!(d.cause, Cause::ModeChange, "{}", d.summary);
-    assert_close(
-        "freq_hz",
-        num(&d.details, "freq_hz"),
-        num(&c.truth, "freq_hz"),
-        0.01,
-    );
-    assert_close(
-        "new_freq_hz",
-        num(&d.details, "new_freq_hz"),
-        num(&c.truth, "new_freq_hz"),
-        0.01,
-    );
-    assert_close(
-        "new_damping",
-        num(&d.details, "new_damping"),
-        num(&c.truth, "new_damping"),
-        0.3,
-    );
+    assert_same(&d, &c, "freq_hz", 0.01);
+    assert_same(&d, &c, "new_freq_hz", 0.01);
+    assert_same(&d, &c, "new_damping", 0.3);
     assert_gain(&d);
     // a new mode in the band the cut excites
     let (c, d, ext) = run(Effect::UnmodeledMode, SEED_UNMODELED);
     assert_eq!(d.cause, Cause::UnmodeledMode, "{}", d.summary);
-    assert_close(
-        "freq_hz",
-        num(&d.details, "freq_hz"),
-        num(&c.truth, "freq_hz"),
-        0.01,
-    );
-    assert_close(
-        "damping",
-        num(&d.details, "damping"),
-        num(&c.truth, "damping"),
-        0.3,
-    );
+    assert_same(&d, &c, "freq_hz", 0.01);
+    assert_same(&d, &c, "damping", 0.3);
     assert_eq!(
         ext.poses[0].model.modes.len(),
         c.twin.poses[0].model.modes.len() + 1
@@ -167,12 +147,7 @@ fn milling_pose_dependence_and_nonlinearity_are_found_with_their_numbers() {
         let (c, d, _) = run(Effect::Nonlinearity, seed);
         assert_eq!(d.cause, Cause::Nonlinearity, "{}", d.summary);
         assert_eq!(d.details["kind"], c.truth["kind"]);
-        assert_close(
-            "freq_hz",
-            num(&d.details, "freq_hz"),
-            num(&c.truth, "freq_hz"),
-            0.02,
-        );
+        assert_same(&d, &c, "freq_hz", 0.02);
         // the linearised twin, when it helps; never a loss
         assert!(d.fit_after_pct >= d.fit_before_pct);
     }

@@ -101,15 +101,12 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
     if let Some(oe) = &rep.output_error {
         out.say(format!(
             "  output-error stage: residual {:.2} % -> {:.2} % of the response RMS in {} iterations \
-             (first {:.2} s of each record not fitted); force noise floor {:?} of the force's median level",
+             (first {:.2} s of each record not fitted); force noise floor {} of the force's median level",
             100.0 * oe.rel_rms_before,
             100.0 * oe.rel_rms_after,
             oe.iterations,
             oe.skipped_s,
-            oe.force_noise
-                .iter()
-                .map(|v| format!("{:.1} %", 100.0 * v))
-                .collect::<Vec<_>>()
+            oe.force_noise_text()
         ));
     }
     if let Some(f) = &a.fmu {

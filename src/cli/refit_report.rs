@@ -63,11 +63,7 @@ pub fn refit_report(old: &Twin, new: &Twin, rep: &RefitReport, series: &[TimeSer
             100.0 * oe.rel_rms_after,
             oe.iterations,
             oe.skipped_s,
-            oe.force_noise
-                .iter()
-                .map(|v| format!("{:.1} %", 100.0 * v))
-                .collect::<Vec<_>>()
-                .join(", ")
+            oe.force_noise_text()
         );
     }
     if !rep.modes.is_empty() {

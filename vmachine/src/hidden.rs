@@ -259,6 +259,23 @@ pub struct Cut {
     pub pose: [f64; 3],
 }
 
+/// [`acquire`] at a fixed pose with the noise seed of `daq` mixed with `record` (each
+/// record of a set gets its own noise).
+fn acquire_at(
+    forces: [Option<Vec<f64>>; 3],
+    resp: [Option<Vec<f64>>; 3],
+    pose: [f64; 3],
+    daq: &Daq,
+    record: u64,
+    name: &str,
+) -> TimeSeries {
+    let daq = Daq {
+        seed: daq.seed ^ record.wrapping_mul(0x9E37_79B9_7F4A_7C15),
+        ..daq.clone()
+    };
+    acquire(forces, resp, &move |_t| pose, &daq, name)
+}
+
 /// Milling records ([`MILL_SECONDS`] each, 3-tooth cutter, mechanistic force plus a
 /// [`MILL_BROADBAND`] share, forces and responses along x and y), one per cut. With
 /// `duffing = Some((k, γ))` mode `k` has the cubic modal stiffness γ
@@ -280,15 +297,12 @@ pub fn milling_tests(
                 Some((k, g)) => duffing_response(m, k, g, &forces, fs, pose, &AXES, daq.response),
                 None => simulate_machine(m, &forces, fs, &move |_t| pose, &AXES, daq.response),
             };
-            let daq = Daq {
-                seed: daq.seed ^ s.wrapping_mul(0x9E37_79B9_7F4A_7C15),
-                ..daq.clone()
-            };
-            acquire(
+            acquire_at(
                 forces,
                 resp,
-                &move |_t| pose,
+                pose,
                 &daq,
+                s,
                 &format!("milling_{:.0}rpm_{:.1}mm", c.rpm, 1e3 * c.ap),
             )
         })
@@ -536,15 +550,12 @@ pub fn duffing_tests_at(
             let mut forces: [Option<Vec<f64>>; 3] = [None, None, None];
             forces[axis.index()] = Some(impacts(fs, n, &hs, None));
             let resp = duffing_response(m, k, gamma, &forces, fs, pose, out, daq.response);
-            let daq = Daq {
-                seed: daq.seed ^ (seed + ai as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15),
-                ..daq.clone()
-            };
-            acquire(
+            acquire_at(
                 forces,
                 resp,
-                &move |_t| pose,
+                pose,
                 &daq,
+                seed + ai as u64,
                 &format!("impact_{axis}_{peak:.0}N"),
             )
         })
