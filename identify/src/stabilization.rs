@@ -15,12 +15,21 @@
 //! stay stable in both over [`StabilizationOptions::min_stable_orders`] consecutive orders,
 //! have a physical damping ratio and lie where the data are usable (weight > 0, i.e. good
 //! coherence) are the *physical modes* ([`StabilizationDiagram::physical`]).
+//!
+//! The orders run from 2 up to [`StabilizationOptions::max_order`], but the diagram stops
+//! earlier once it has gone [`StabilizationOptions::quiet_orders`] orders without a new
+//! physical mode and its order is at least [`MIN_TOP_ORDER`] and four times the number of
+//! physical modes (twice the poles they need): beyond that the extra orders only add computational poles, and
+//! their roots cost O(n³) each (set `quiet_orders = 0` for every order up to the top).
 
 use crate::error::{Error, Result};
 use crate::frf::Frf;
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
 use std::f64::consts::PI;
+
+/// The diagram never stops early below this order (see the module docs).
+pub const MIN_TOP_ORDER: usize = 32;
 
 /// Settings of the stabilization diagram.
 #[derive(Debug, Clone, PartialEq)]
@@ -37,6 +46,10 @@ pub struct StabilizationOptions {
     pub min_stable_orders: usize,
     /// Poles with a larger damping ratio are never physical (default 0.2).
     pub max_damping: f64,
+    /// Stop below `max_order` after this many orders without a new physical mode (at an
+    /// order of at least [`MIN_TOP_ORDER`] and four times the physical modes); 0 = never
+    /// stop early (default 24).
+    pub quiet_orders: usize,
 }
 
 impl Default for StabilizationOptions {
@@ -47,6 +60,7 @@ impl Default for StabilizationOptions {
             tol_damping: 0.05,
             min_stable_orders: 4,
             max_damping: 0.2,
+            quiet_orders: 24,
         }
     }
 }
@@ -277,6 +291,7 @@ pub fn diagram(
 
     let mut orders: Vec<OrderPoles> = Vec::new();
     let mut next_chain = 0usize;
+    let (mut physical_so_far, mut last_new) = (0usize, 0usize);
     for order in (2..=n).step_by(2) {
         let q = order + 1;
         while rows_done < q {
@@ -338,6 +353,17 @@ pub fn diagram(
         poles.sort_by(|a, b| a.f_hz.total_cmp(&b.f_hz));
         link_to_previous(&mut poles, orders.last(), opts, &mut next_chain);
         orders.push(OrderPoles { order, poles });
+        if opts.quiet_orders > 0 {
+            let n_phys = physical_modes(&orders, opts).len();
+            if n_phys > physical_so_far {
+                physical_so_far = n_phys;
+                last_new = order;
+            }
+            let floor = (4 * physical_so_far).max(MIN_TOP_ORDER);
+            if order >= last_new + opts.quiet_orders && order >= floor {
+                break;
+            }
+        }
     }
     let physical = physical_modes(&orders, opts);
     Ok(StabilizationDiagram { orders, physical })
