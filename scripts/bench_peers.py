@@ -417,7 +417,7 @@ def main():
         "threads (poses' FRFs and fits in parallel; the mode tracking across poses runs in "
         "sequence). Every other row, mtwin's included, is one thread.",
         "* The machine is shared (other checkouts may build at the same time): times vary by "
-        "up to about 30 % between runs of the script (b, mtwin: 20-27 ms over runs of this "
+        "up to about 30 % between runs of the script (b, mtwin: 15-19 ms over runs of this "
         "commit); the fits do not change.",
     ]
     text = "\n".join(head) + "\n" + tab.markdown() + "\n" + "\n".join(notes) + "\n"
