@@ -19,8 +19,9 @@
 //! The orders run from 2 up to [`StabilizationOptions::max_order`], but the diagram stops
 //! earlier once it has gone [`StabilizationOptions::quiet_orders`] orders without a new
 //! physical mode and its order is at least [`MIN_TOP_ORDER`] and four times the number of
-//! physical modes (twice the poles they need): beyond that the extra orders only add computational poles, and
-//! their roots cost O(n³) each (set `quiet_orders = 0` for every order up to the top).
+//! physical modes (twice the poles they need): beyond that the extra orders only add
+//! computational poles, and their roots cost O(n³) each (set `quiet_orders = 0` for every
+//! order up to the top).
 
 use crate::error::{Error, Result};
 use crate::frf::Frf;
