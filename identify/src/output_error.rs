@@ -24,6 +24,7 @@ use crate::model::ModalModel;
 use crate::timeseries::{ResponseKind, TimeSeries};
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
+use rayon::prelude::*;
 use realfft::{ComplexToReal, RealFftPlanner};
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
@@ -378,9 +379,10 @@ impl Problem<'_> {
         // per record: the conditioned forces, the targets, the (input, free mode) -> [q, q̇]
         // columns
         type Cols = Vec<(Axis, usize, [Vec<f64>; 2])>;
+        // records are independent: in parallel (rayon; in order)
         let per_rec: Vec<(Vec<Vec<f64>>, Cols)> = self
             .recs
-            .iter()
+            .par_iter()
             .enumerate()
             .map(|(ri, p)| {
                 let u = p.wiener(&self.noise_of(theta, ri));
