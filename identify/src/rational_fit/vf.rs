@@ -14,6 +14,13 @@ use crate::model::Mode;
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
 
+/// The poles have settled when none moves by more than this (relative). The vector
+/// fitting converges linearly (about 0.15 per iteration near the fixed point), and its
+/// poles only start the automatic order search and the Levenberg–Marquardt refinement of
+/// the true error: 1e-5 instead of 1e-7 saves two or three relocations per order with the
+/// same final fits.
+const SETTLED: f64 = 1e-5;
+
 /// Smallest relative damping a relocated pole keeps (|Re p| ≥ this × |p|).
 const MIN_REL_DAMPING: f64 = 1e-6;
 
@@ -49,7 +56,7 @@ pub(crate) fn relocate(p: &Prepared, poles: &mut Vec<Complex64>, iters: usize) -
         };
         let change = pole_change(poles, &new);
         *poles = new;
-        if change < 1e-7 {
+        if change < SETTLED {
             return it + 1;
         }
         // A pole the data do not support keeps jumping (often between a pair and two
