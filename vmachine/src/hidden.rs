@@ -146,6 +146,21 @@ pub fn disturbed(mut ts: TimeSeries, axis: Axis, f_hz: f64, rel: f64) -> TimeSer
     ts
 }
 
+/// The axis (x or y) and half-span \[m\] of a hidden pose dependence drawn from `rng`,
+/// with its truth (the axis, every mode's frequency shift in %/m) written to `truth`.
+fn pose_dependence_truth(
+    machine: &ModalMachine,
+    rng: &mut StdRng,
+    truth: &mut serde_json::Map<String, serde_json::Value>,
+) -> (usize, f64) {
+    let axis = rng.gen_range(0..2usize);
+    let span = rng.gen_range(0.15..0.25);
+    truth.insert("axis_of_variation".into(), ["x", "y", "z"][axis].into());
+    let rates: Vec<f64> = machine.modes.iter().map(|v| 100.0 * v.grad[axis]).collect();
+    truth.insert("freq_shift_pct_per_m".into(), serde_json::json!(rates));
+    (axis, span)
+}
+
 /// One case of `effect` with parameters from `seed`. `base` is [`base_twin`] of the
 /// default machine with channels x, y (passed in so many cases share one identification).
 pub fn case(effect: Effect, seed: u64, base: &Twin) -> Case {
@@ -199,11 +214,7 @@ pub fn case(effect: Effect, seed: u64, base: &Twin) -> Case {
             (tw, tests_at(&machine, POSE, &[Axis::X], &AXES, fresh))
         }
         Effect::PoseDependence => {
-            let axis = rng.gen_range(0..2usize);
-            let span = rng.gen_range(0.15..0.25);
-            truth.insert("axis_of_variation".into(), ["x", "y", "z"][axis].into());
-            let rates: Vec<f64> = machine.modes.iter().map(|v| 100.0 * v.grad[axis]).collect();
-            truth.insert("freq_shift_pct_per_m".into(), serde_json::json!(rates));
+            let (axis, span) = pose_dependence_truth(&machine, &mut rng, &mut truth);
             let mut recs = Vec::new();
             for (i, d) in [-span, span].iter().enumerate() {
                 let mut p = POSE;
@@ -453,11 +464,7 @@ pub fn milling_case(effect: Effect, seed: u64, base: &Twin) -> Case {
             )
         }
         Effect::PoseDependence => {
-            let axis = rng.gen_range(0..2usize);
-            let span = rng.gen_range(0.15..0.25);
-            truth.insert("axis_of_variation".into(), ["x", "y", "z"][axis].into());
-            let rates: Vec<f64> = machine.modes.iter().map(|v| 100.0 * v.grad[axis]).collect();
-            truth.insert("freq_shift_pct_per_m".into(), serde_json::json!(rates));
+            let (axis, span) = pose_dependence_truth(&machine, &mut rng, &mut truth);
             let mut all = Vec::new();
             for d in [-span, span] {
                 let mut p = POSE;
