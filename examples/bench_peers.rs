@@ -334,28 +334,13 @@ fn case_d(dir: &Path, machine: &ModalMachine) -> Res<Value> {
 /// stiffness −15 %, milling (fx, fy; ax, ay) at 3 spindle speeds × 15 s at the centre.
 fn case_f(dir: &Path, machine: &ModalMachine) -> Res<Value> {
     use identify::refit::{default_nfft, refit, RefitMethod, RefitOptions};
-    use vmachine::daq::milling_record;
-    use vmachine::excitation::Milling;
+    use vmachine::daq::milling_at_centre;
     let axes = [Axis::X, Axis::Y];
     let twin = machine.exact_twin([3, 3, 2], &axes);
     let worn = machine.clone().with_stiffness_change(2, 0.85);
     let c = machine.center();
-    let recs: Vec<TimeSeries> = [2400.0, 3300.0, 4500.0]
-        .iter()
-        .enumerate()
-        .map(|(i, &rpm)| {
-            let cut = Milling {
-                rpm,
-                teeth: 3,
-                ..Milling::default()
-            };
-            let daq = Daq {
-                seed: 107 + i as u64,
-                ..Daq::default()
-            };
-            milling_record(&worn, &cut, &|_t| c, 15.0, 0.5, &daq, 7 + i as u64)
-        })
-        .collect();
+    // the records of identify/tests/refit_truth.rs
+    let recs = milling_at_centre(&worn, &[2400.0, 3300.0, 4500.0], 15.0, 7);
     let band = (30.0, 1500.0);
     let freqs: Vec<f64> = (0..=1000)
         .map(|i| band.0 + (band.1 - band.0) * i as f64 / 1000.0)

@@ -8,34 +8,13 @@ use identify::axis::Axis;
 use identify::frf::fit_percent;
 use identify::interpolate::TwinEvaluator;
 use identify::refit::{refit, RefitMethod, RefitOptions};
-use identify::timeseries::TimeSeries;
+
 use identify::twin::Twin;
-use vmachine::daq::{milling_record, Daq};
-use vmachine::excitation::Milling;
+use vmachine::daq::{milling_at_centre, Daq};
 use vmachine::structure::ModalMachine;
 
 const AXES: [Axis; 2] = [Axis::X, Axis::Y];
 const BAND: (f64, f64) = (30.0, 1500.0);
-
-/// `seconds` of milling at each spindle speed, at the workspace centre.
-fn milling(m: &ModalMachine, rpms: &[f64], seconds: f64, seed: u64) -> Vec<TimeSeries> {
-    let c = m.center();
-    rpms.iter()
-        .enumerate()
-        .map(|(i, &rpm)| {
-            let cut = Milling {
-                rpm,
-                teeth: 3,
-                ..Milling::default()
-            };
-            let daq = Daq {
-                seed: seed + 100 + i as u64,
-                ..Daq::default()
-            };
-            milling_record(m, &cut, &|_t| c, seconds, 0.5, &daq, seed + i as u64)
-        })
-        .collect()
-}
 
 /// Worst direct-channel fit of the twin at `pose` vs the machine's analytic FRF in `band`.
 fn accuracy(twin: &Twin, m: &ModalMachine, pose: [f64; 3]) -> f64 {
@@ -63,7 +42,7 @@ fn worn_mode_seen_in_milling_at_three_speeds_both_methods() {
     // the twin identified before the wear: exact, so the test measures the refit alone
     let twin = machine.exact_twin([3, 3, 2], &AXES);
     let worn = machine.clone().with_stiffness_change(2, 0.85);
-    let data = milling(&worn, &[2400.0, 3300.0, 4500.0], 15.0, 7);
+    let data = milling_at_centre(&worn, &[2400.0, 3300.0, 4500.0], 15.0, 7);
     let c = machine.center();
     let before = accuracy(&twin, &worn, c);
     assert!(before < 50.0, "the wear must matter: {before:.2} %");
@@ -130,7 +109,7 @@ fn lifetime_sequence_tracks_every_wear_step_and_keeps_the_history() {
     ];
     let mut states: Vec<Twin> = vec![twin.clone()];
     for (i, truth) in steps.iter().enumerate() {
-        let data = milling(truth, &[2400.0, 3300.0, 4500.0], 15.0, 50 + 10 * i as u64);
+        let data = milling_at_centre(truth, &[2400.0, 3300.0, 4500.0], 15.0, 50 + 10 * i as u64);
         let (next, rep) = refit(&twin, &data, &RefitOptions::default()).unwrap();
         let before = accuracy(&twin, truth, c);
         let after = accuracy(&next, truth, c);

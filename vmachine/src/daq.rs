@@ -303,6 +303,34 @@ pub fn milling_forces(
     [Some(fx), Some(fy), None]
 }
 
+/// `seconds` of milling at each of `rpms` (3-tooth cutter, default cut, 50 % broadband
+/// share) at the workspace centre of `machine`, one record per speed: record `i` has the
+/// acquisition seed `seed + 100 + i` and the force seed `seed + i`. The refit tests and
+/// the side-by-side benchmark share it.
+pub fn milling_at_centre(
+    machine: &ModalMachine,
+    rpms: &[f64],
+    seconds: f64,
+    seed: u64,
+) -> Vec<TimeSeries> {
+    let c = machine.center();
+    rpms.iter()
+        .enumerate()
+        .map(|(i, &rpm)| {
+            let cut = Milling {
+                rpm,
+                teeth: 3,
+                ..Milling::default()
+            };
+            let daq = Daq {
+                seed: seed + 100 + i as u64,
+                ..Daq::default()
+            };
+            milling_record(machine, &cut, &|_t| c, seconds, 0.5, &daq, seed + i as u64)
+        })
+        .collect()
+}
+
 /// A milling record: the mechanistic force of `cut` (Fx, Fy) plus a broadband share
 /// (standard deviation `broadband` relative to the cutting force's RMS), `duration`
 /// seconds, the axes following `pose_at`, responses along x and y.
