@@ -13,6 +13,7 @@
 //! result carries a relative error below about `1e-15 / MIN_PIVOT²` = 1e-7.
 
 use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
+use num_complex::Complex64;
 use std::cell::RefCell;
 
 /// Buffers the fitting loops hand back for reuse (per thread, at most [`POOL_SIZE`]).
@@ -26,7 +27,7 @@ thread_local! {
 
 /// A zero `rows × cols` matrix, its buffer taken from this thread's pool when one is
 /// large enough.
-pub(crate) fn pooled_zeros(rows: usize, cols: usize) -> DMatrix<f64> {
+fn pooled_zeros(rows: usize, cols: usize) -> DMatrix<f64> {
     let n = rows * cols;
     let mut v = POOL
         .with(|p| {
@@ -43,7 +44,7 @@ pub(crate) fn pooled_zeros(rows: usize, cols: usize) -> DMatrix<f64> {
 }
 
 /// Hands the buffer of `m` back to this thread's pool (dropped when the pool is full).
-pub(crate) fn release(m: DMatrix<f64>) {
+fn release(m: DMatrix<f64>) {
     let v: Vec<f64> = m.data.into();
     if v.capacity() < 4096 {
         return;
@@ -60,6 +61,48 @@ pub(crate) fn release(m: DMatrix<f64>) {
     });
 }
 
+/// A tall real-form matrix (each frequency line is two rows: real part, imaginary part)
+/// and its transpose, written together: the Gram products need `aᵀ` with contiguous
+/// rows, the QR fallback needs `a`, and transposing the tall matrix afterwards costs
+/// more than writing both. Buffers come from the pool.
+pub(crate) struct Tall {
+    /// The matrix.
+    pub a: DMatrix<f64>,
+    /// Its transpose.
+    pub at: DMatrix<f64>,
+}
+
+impl Tall {
+    /// Zeros, `2 × lines` rows, `cols` columns.
+    pub(crate) fn zeros(lines: usize, cols: usize) -> Tall {
+        Tall {
+            a: pooled_zeros(2 * lines, cols),
+            at: pooled_zeros(cols, 2 * lines),
+        }
+    }
+
+    /// Sets the two rows of `line` in column `col` to `z` (real part, imaginary part).
+    pub(crate) fn set(&mut self, line: usize, col: usize, z: Complex64) {
+        let r = 2 * line;
+        self.a[(r, col)] = z.re;
+        self.a[(r + 1, col)] = z.im;
+        self.at[(col, r)] = z.re;
+        self.at[(col, r + 1)] = z.im;
+    }
+
+    /// The matrix alone (the transpose's buffer goes back to the pool).
+    pub(crate) fn into_a(self) -> DMatrix<f64> {
+        release(self.at);
+        self.a
+    }
+
+    /// Both buffers back to the pool.
+    pub(crate) fn release(self) {
+        release(self.a);
+        release(self.at);
+    }
+}
+
 /// Smallest pivot of the column-scaled Cholesky factor for which the Gram shortcuts are
 /// used (about the reciprocal condition number of the scaled matrix).
 pub(crate) const MIN_PIVOT: f64 = 1e-4;
@@ -74,11 +117,11 @@ pub(crate) struct ScaledGram {
 }
 
 impl ScaledGram {
-    /// From `a` and its transpose `at`. `None` when a column is zero or not finite, or
-    /// the smallest pivot is below [`MIN_PIVOT`].
-    pub(crate) fn new(a: &DMatrix<f64>, at: &DMatrix<f64>) -> Option<ScaledGram> {
-        let n = a.ncols();
-        let g = at * a;
+    /// Of `t.a`. `None` when a column is zero or not finite, or the smallest pivot is
+    /// below [`MIN_PIVOT`].
+    pub(crate) fn new(t: &Tall) -> Option<ScaledGram> {
+        let n = t.a.ncols();
+        let g = &t.at * &t.a;
         let d: Vec<f64> = (0..n).map(|j| g[(j, j)].sqrt()).collect();
         if d.iter().any(|v| !(v.is_finite() && *v > 0.0)) {
             return None;
@@ -93,12 +136,8 @@ impl ScaledGram {
     /// Least-squares solution of `a x ≈ y` from the normal equations with one step of
     /// iterative refinement on the residual (corrected semi-normal equations); returns
     /// `x` and the residual `y − a x`.
-    pub(crate) fn solve(
-        &self,
-        a: &DMatrix<f64>,
-        at: &DMatrix<f64>,
-        y: &DVector<f64>,
-    ) -> (DVector<f64>, DVector<f64>) {
+    pub(crate) fn solve(&self, t: &Tall, y: &DVector<f64>) -> (DVector<f64>, DVector<f64>) {
+        let (a, at) = (&t.a, &t.at);
         let n = self.d.len();
         let solve_scaled = |rhs: DVector<f64>| -> DVector<f64> {
             let rs = DVector::from_iterator(n, rhs.iter().zip(&self.d).map(|(v, d)| v / d));
@@ -113,16 +152,16 @@ impl ScaledGram {
     }
 }
 
-/// The trailing `(n − k) × (n − k)` block of the `R` factor of the QR of `a` (up to the
+/// The trailing `(n − k) × (n − k)` block of the `R` factor of the QR of `t.a` (up to the
 /// signs of its rows) from the Cholesky factor of the column-scaled Gram matrix: one
 /// matrix product instead of a QR of the tall matrix. `None` when the scaled Gram
 /// matrix is too ill-conditioned (see the module docs): use the QR.
-pub(crate) fn trailing_r(a: &DMatrix<f64>, at: &DMatrix<f64>, k: usize) -> Option<DMatrix<f64>> {
-    let n = a.ncols();
-    if k > n || a.nrows() < n {
+pub(crate) fn trailing_r(t: &Tall, k: usize) -> Option<DMatrix<f64>> {
+    let n = t.a.ncols();
+    if k > n || t.a.nrows() < n {
         return None;
     }
-    let g = ScaledGram::new(a, at)?;
+    let g = ScaledGram::new(t)?;
     let l = g.chol.l();
     // R = Lᵀ D (a = a_s D, a_s = Q Lᵀ)
     let out = DMatrix::from_fn(n - k, n - k, |i, j| l[(k + j, k + i)] * g.d[k + j]);
@@ -189,7 +228,11 @@ mod tests {
         let a = tall(400, 9, 3);
         let k = 4;
         let r = a.clone().qr().r();
-        let t = trailing_r(&a, &a.transpose(), k).expect("well conditioned");
+        let tall = Tall {
+            at: a.transpose(),
+            a: a.clone(),
+        };
+        let t = trailing_r(&tall, k).expect("well conditioned");
         for i in 0..(9 - k) {
             let sign = r[(k + i, k + i)].signum() * t[(i, i)].signum();
             for j in 0..(9 - k) {
@@ -209,9 +252,12 @@ mod tests {
         let c3 = a.column(3).into_owned();
         let c0 = a.column(0).into_owned();
         a.column_mut(4).copy_from(&(c3 + c0 * 1e-9));
-        let at = a.transpose();
-        assert!(ScaledGram::new(&a, &at).is_none());
-        assert!(trailing_r(&a, &at, 2).is_none());
+        let tall = Tall {
+            at: a.transpose(),
+            a,
+        };
+        assert!(ScaledGram::new(&tall).is_none());
+        assert!(trailing_r(&tall, 2).is_none());
     }
 
     #[test]
@@ -219,9 +265,12 @@ mod tests {
         let a = tall(500, 7, 5);
         let y = DVector::from_fn(500, |i, _| (i as f64 * 0.37).sin());
         let x_qr = lstsq(&a, &y).unwrap();
-        let at = a.transpose();
-        let g = ScaledGram::new(&a, &at).unwrap();
-        let (x, r) = g.solve(&a, &at, &y);
+        let tall = Tall {
+            at: a.transpose(),
+            a: a.clone(),
+        };
+        let g = ScaledGram::new(&tall).unwrap();
+        let (x, r) = g.solve(&tall, &y);
         for j in 0..7 {
             assert!(
                 (x[j] - x_qr[j]).abs() <= 1e-10 * x_qr[j].abs().max(1e-6),

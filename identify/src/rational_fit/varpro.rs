@@ -10,7 +10,7 @@
 //! well conditioned, one Gram matrix (see `linalg`), about five times cheaper.
 
 use super::data::Prepared;
-use super::linalg::{lstsq, pooled_zeros, release, ScaledGram};
+use super::linalg::{lstsq, ScaledGram, Tall};
 use crate::model::Mode;
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
@@ -28,67 +28,33 @@ pub(crate) struct Solved {
     pub iterations: usize,
 }
 
-/// The real-form design matrix and weighted data of one channel (rows of lines with
-/// positive weight: real parts then imaginary parts interleaved) and, when `with_t`,
-/// the transposed design matrix written alongside (the Gram products need it;
-/// transposing the tall matrix afterwards costs more).
-fn design_both(
-    p: &Prepared,
-    ci: usize,
-    modes: &[Mode],
-    with_t: bool,
-) -> (DMatrix<f64>, DMatrix<f64>, DVector<f64>, Vec<usize>) {
+/// The real-form design matrix (with its transpose) and weighted data of one channel
+/// (rows of lines with positive weight: real parts then imaginary parts interleaved).
+fn design(p: &Prepared, ci: usize, modes: &[Mode]) -> (Tall, DVector<f64>, Vec<usize>) {
     let lines: Vec<usize> = (0..p.n_lines()).filter(|&k| p.w[ci][k] > 0.0).collect();
     let m = 2 * modes.len() + 1;
-    let rows = 2 * lines.len();
-    let mut a = pooled_zeros(rows, m);
-    let mut at = if with_t {
-        pooled_zeros(m, rows)
-    } else {
-        DMatrix::zeros(0, 0)
-    };
-    let mut y = DVector::<f64>::zeros(rows);
-    let mut put = |r: usize, c: usize, v: f64| {
-        a[(r, c)] = v;
-        if with_t {
-            at[(c, r)] = v;
-        }
-    };
+    let mut a = Tall::zeros(lines.len(), m);
+    let mut y = DVector::<f64>::zeros(2 * lines.len());
     for (i, &k) in lines.iter().enumerate() {
         let w = p.w[ci][k];
         let s = p.s[k];
         for (j, md) in modes.iter().enumerate() {
             let inv = w / md.den(s);
-            let v1 = s * inv;
-            put(2 * i, 2 * j, v1.re);
-            put(2 * i + 1, 2 * j, v1.im);
-            put(2 * i, 2 * j + 1, inv.re);
-            put(2 * i + 1, 2 * j + 1, inv.im);
+            a.set(i, 2 * j, s * inv);
+            a.set(i, 2 * j + 1, inv);
         }
-        put(2 * i, m - 1, w);
+        a.set(i, m - 1, Complex64::new(w, 0.0));
         let hw = p.h[ci][k] * w;
         y[2 * i] = hw.re;
         y[2 * i + 1] = hw.im;
     }
-    (a, at, y, lines)
+    (a, y, lines)
 }
 
-/// `V = (∂A/∂θ) x` of one channel and its transpose: two columns per mode (`ln ω`,
-/// `ln ζ`), rows as in [`design_both`].
-fn derivatives(
-    p: &Prepared,
-    ci: usize,
-    modes: &[Mode],
-    lines: &[usize],
-    x: &[f64],
-) -> (DMatrix<f64>, DMatrix<f64>) {
-    let np = 2 * modes.len();
-    let mut v = pooled_zeros(2 * lines.len(), np);
-    let mut vt = pooled_zeros(np, 2 * lines.len());
-    let mut put = |r: usize, c: usize, val: f64| {
-        v[(r, c)] = val;
-        vt[(c, r)] = val;
-    };
+/// `V = (∂A/∂θ) x` of one channel (with its transpose): two columns per mode (`ln ω`,
+/// `ln ζ`), rows as in [`design`].
+fn derivatives(p: &Prepared, ci: usize, modes: &[Mode], lines: &[usize], x: &[f64]) -> Tall {
+    let mut v = Tall::zeros(lines.len(), 2 * modes.len());
     for (i, &k) in lines.iter().enumerate() {
         let w = p.w[ci][k];
         let s = p.s[k];
@@ -97,15 +63,11 @@ fn derivatives(
             let num = s * x[2 * j] + x[2 * j + 1];
             let g = -(num * w) / (den * den);
             // ∂den/∂ln ω = ω (2ζ s + 2ω), ∂den/∂ln ζ = 2ζω s
-            let d_w = g * ((s * (2.0 * md.zeta) + 2.0 * md.wn) * md.wn);
-            let d_z = g * (s * (2.0 * md.zeta * md.wn));
-            put(2 * i, 2 * j, d_w.re);
-            put(2 * i + 1, 2 * j, d_w.im);
-            put(2 * i, 2 * j + 1, d_z.re);
-            put(2 * i + 1, 2 * j + 1, d_z.im);
+            v.set(i, 2 * j, g * ((s * (2.0 * md.zeta) + 2.0 * md.wn) * md.wn));
+            v.set(i, 2 * j + 1, g * (s * (2.0 * md.zeta * md.wn)));
         }
     }
-    (v, vt)
+    v
 }
 
 /// Numerators for fixed modes (linear least squares per channel) and the cost.
@@ -113,26 +75,25 @@ pub(crate) fn solve_linear(p: &Prepared, modes: &[Mode]) -> Option<Solved> {
     let mut coefs = Vec::with_capacity(p.channels.len());
     let mut cost = 0.0;
     for ci in 0..p.channels.len() {
-        let (a, at, y, _) = design_both(p, ci, modes, true);
-        if a.nrows() == 0 {
-            coefs.push(vec![0.0; a.ncols()]);
+        let (a, y, _) = design(p, ci, modes);
+        if a.a.nrows() == 0 {
+            coefs.push(vec![0.0; a.a.ncols()]);
             continue;
         }
-        let gram = if a.nrows() >= a.ncols() {
-            ScaledGram::new(&a, &at).map(|g| g.solve(&a, &at, &y))
+        let gram = if a.a.nrows() >= a.a.ncols() {
+            ScaledGram::new(&a).map(|g| g.solve(&a, &y))
         } else {
             None
         };
         let (x, r) = match gram {
             Some((x, r)) if x.iter().all(|v| v.is_finite()) => (x, r),
             _ => {
-                let x = lstsq(&a, &y)?;
-                let r = &y - &a * &x;
+                let x = lstsq(&a.a, &y)?;
+                let r = &y - &a.a * &x;
                 (x, r)
             }
         };
-        release(a);
-        release(at);
+        a.release();
         cost += r.norm_squared();
         coefs.push(x.iter().copied().collect());
     }
@@ -155,20 +116,19 @@ fn channel_gram(
     p: &Prepared,
     ci: usize,
     modes: &[Mode],
-    a: &DMatrix<f64>,
-    at: &DMatrix<f64>,
+    a: &Tall,
     y: &DVector<f64>,
     lines: &[usize],
 ) -> Option<ChannelSystem> {
-    let g = ScaledGram::new(a, at)?;
-    let (x, r) = g.solve(a, at, y);
+    let g = ScaledGram::new(a)?;
+    let (x, r) = g.solve(a, y);
     let x: Vec<f64> = x.iter().copied().collect();
     if x.iter().any(|v| !v.is_finite()) {
         return None;
     }
-    let (v, vt) = derivatives(p, ci, modes, lines, &x);
-    let vtv = &vt * &v;
-    let mut b = at * &v;
+    let v = derivatives(p, ci, modes, lines, &x);
+    let vtv = &v.at * &v.a;
+    let mut b = &a.at * &v.a;
     for (i, d) in g.d.iter().enumerate() {
         b.row_mut(i).unscale_mut(*d);
     }
@@ -176,11 +136,11 @@ fn channel_gram(
     let jtj = &vtv - z.transpose() * &z;
     // the projected part must keep a fair share of every derivative column
     if (0..jtj.nrows()).any(|i| !(jtj[(i, i)] >= 1e-6 * vtv[(i, i)])) {
+        v.release();
         return None;
     }
-    let jtr = -(&vt * &r);
-    release(v);
-    release(vt);
+    let jtr = -(&v.at * &r);
+    v.release();
     Some((x, r.norm_squared(), jtj, jtr))
 }
 
@@ -219,10 +179,9 @@ fn channel_qr(
     // to the range of A: P V and P y = r (no explicit Q).
     let n_rows = y.len();
     let mut vy = DMatrix::<f64>::zeros(n_rows, np + 1);
-    let (v, vt) = derivatives(p, ci, modes, lines, &x);
-    vy.columns_mut(0, np).copy_from(&v);
-    release(v);
-    release(vt);
+    let v = derivatives(p, ci, modes, lines, &x);
+    vy.columns_mut(0, np).copy_from(&v.a);
+    v.release();
     vy.column_mut(np).copy_from(y);
     qr.q_tr_mul(&mut vy);
     let tail = vy.rows(m, n_rows - m);
@@ -241,22 +200,19 @@ fn evaluate(p: &Prepared, modes: &[Mode]) -> Option<(Solved, DMatrix<f64>, DVect
     let mut coefs = Vec::with_capacity(p.channels.len());
     let mut cost = 0.0;
     for ci in 0..p.channels.len() {
-        let (a, at, y, lines) = design_both(p, ci, modes, true);
-        let m = a.ncols();
-        if a.nrows() < m {
+        let (a, y, lines) = design(p, ci, modes);
+        let m = a.a.ncols();
+        if a.a.nrows() < m {
+            a.release();
             coefs.push(vec![0.0; m]);
             continue;
         }
-        let (x, c, j2, r2) = match channel_gram(p, ci, modes, &a, &at, &y, &lines) {
+        let (x, c, j2, r2) = match channel_gram(p, ci, modes, &a, &y, &lines) {
             Some(sys) => {
-                release(a);
-                release(at);
+                a.release();
                 sys
             }
-            None => {
-                release(at);
-                channel_qr(p, ci, modes, a, &y, &lines)?
-            }
+            None => channel_qr(p, ci, modes, a.into_a(), &y, &lines)?,
         };
         cost += c;
         jtj += j2;

@@ -9,7 +9,7 @@
 //! `1/(s−p) + 1/(s−p̄)` and `j/(s−p) − j/(s−p̄)`.
 
 use super::data::Prepared;
-use super::linalg::{lstsq, pooled_zeros, release, trailing_r};
+use super::linalg::{lstsq, trailing_r, Tall};
 use crate::model::Mode;
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
@@ -106,46 +106,32 @@ fn step(p: &Prepared, poles: &[Complex64]) -> Option<Vec<Complex64>> {
         if lines.is_empty() {
             continue;
         }
-        // the design matrix and its transpose (rows contiguous, for the Gram product),
-        // both written here: transposing a tall matrix afterwards costs more
-        let rows = 2 * lines.len();
-        let mut a = pooled_zeros(rows, 2 * m);
-        let mut at = pooled_zeros(2 * m, rows);
-        let mut put = |r: usize, c: usize, v: f64| {
-            a[(r, c)] = v;
-            at[(c, r)] = v;
-        };
+        let mut d = Tall::zeros(lines.len(), 2 * m);
         for (i, &k) in lines.iter().enumerate() {
             let w = p.w[ci][k];
             let h = p.h[ci][k];
             for (j, f) in phis[k].iter().enumerate() {
-                let v = f * w;
-                put(2 * i, j, v.re);
-                put(2 * i + 1, j, v.im);
-                let u = -(f * h) * w;
-                put(2 * i, m + j, u.re);
-                put(2 * i + 1, m + j, u.im);
+                d.set(i, j, f * w);
+                d.set(i, m + j, -(f * h) * w);
             }
-            put(2 * i, nb, w);
-            let u = -h * w;
-            put(2 * i, m + nb, u.re);
-            put(2 * i + 1, m + nb, u.im);
+            d.set(i, nb, Complex64::new(w, 0.0));
+            d.set(i, m + nb, -h * w);
             relax_scale += (h * w).norm_sqr();
         }
-        if a.nrows() < 2 * m {
+        if d.a.nrows() < 2 * m {
             // too few lines in this channel for its own unknowns: skip it for σ
+            d.release();
             continue;
         }
         // only the σ block of R is needed: from the Gram matrix when it is well
         // conditioned (about 5x faster), else from the Householder QR
-        let r22 = match trailing_r(&a, &at, m) {
+        let r22 = match trailing_r(&d, m) {
             Some(r) => {
-                release(a);
+                d.release();
                 r
             }
-            None => a.qr().r().view((m, m), (m, m)).into_owned(),
+            None => d.into_a().qr().r().view((m, m), (m, m)).into_owned(),
         };
-        release(at);
         big.view_mut((row, 0), (m, m)).copy_from(&r22);
         row += m;
     }
