@@ -23,6 +23,9 @@
 //!    not explain (`disturbance`). The cause whose extended twin wins most on the held-out
 //!    data, and explains the FRF evidence (χ falls), is named. A significant misfit none
 //!    of them explains is `unexplained`, with the band where it sits.
+//!
+//! With `MTWIN_DEBUG_DIAGNOSE` set, the evidence behind each decision (χ, the largest
+//! residuals, the modes' moves between force levels, the cubic search) goes to stderr.
 
 use crate::axis::{Axis, Channel};
 use crate::error::{Error, Result};
@@ -42,6 +45,20 @@ use rustfft::FftPlanner;
 use serde::{Deserialize, Serialize};
 use serde_json::{json, Map, Value};
 use std::f64::consts::PI;
+use std::sync::OnceLock;
+
+/// Whether the tuning traces are on (`MTWIN_DEBUG_DIAGNOSE` set; read once).
+fn tracing() -> bool {
+    static ON: OnceLock<bool> = OnceLock::new();
+    *ON.get_or_init(|| std::env::var_os("MTWIN_DEBUG_DIAGNOSE").is_some())
+}
+
+/// A tuning trace on stderr when [`tracing`] (the evidence behind a decision).
+fn trace(msg: impl FnOnce() -> String) {
+    if tracing() {
+        eprintln!("{}", msg());
+    }
+}
 
 /// The SPEC's causes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -896,9 +913,7 @@ fn cand_nonlinearity(
     if !(lo > 0.0 && hi >= 2.0 * lo) {
         return None;
     }
-    if std::env::var_os("MTWIN_DEBUG_DIAGNOSE").is_some() {
-        eprintln!("nonlinearity: force peaks {lo:.1}..{hi:.1} N");
-    }
+    trace(|| format!("nonlinearity: force peaks {lo:.1}..{hi:.1} N"));
     let split = (lo * hi).sqrt();
     let group = |high: bool| -> Vec<TimeSeries> {
         parts
@@ -927,14 +942,14 @@ fn cand_nonlinearity(
         let dz = b.model.modes[k].zeta / a.model.modes[k].zeta - 1.0;
         moves.push((k, df, dz, a.model, b.model));
     }
-    if std::env::var_os("MTWIN_DEBUG_DIAGNOSE").is_some() {
-        for (k, df, dz, _, _) in &moves {
-            eprintln!(
+    for (k, df, dz, _, _) in &moves {
+        trace(|| {
+            format!(
                 "nonlinearity: mode {k}: frequency {:+.3} %, damping {:+.1} %",
                 100.0 * df,
                 100.0 * dz
-            );
-        }
+            )
+        });
     }
     // the scatter of the frequency moves: most modes are linear, their moves are noise
     let med_df = {
@@ -960,13 +975,13 @@ fn cand_nonlinearity(
         Some((k, df, dz, a, b)) => (*k, df.abs().max(0.1 * dz.abs()), a.clone(), b.clone()),
         None => return None,
     };
-    if std::env::var_os("MTWIN_DEBUG_DIAGNOSE").is_some() {
-        eprintln!(
+    trace(|| {
+        format!(
             "nonlinearity: mode {k} score {score:.4}: {:.2} -> {:.2} Hz",
             low.modes[k].freq_hz(),
             high.modes[k].freq_hz()
-        );
-    }
+        )
+    });
     let df = high.modes[k].wn / low.modes[k].wn - 1.0;
     let dz = high.modes[k].zeta / low.modes[k].zeta - 1.0;
     let kind = if df.abs() >= 0.002 {
@@ -1097,12 +1112,12 @@ fn fit_cubic(
         }
     }
     let (x, best) = if fc > fe { (c, fc) } else { (e, fe) };
-    if std::env::var_os("MTWIN_DEBUG_DIAGNOSE").is_some() {
-        eprintln!(
+    trace(|| {
+        format!(
             "nonlinearity: cubic on mode {k}: amplitude {amp:.3e}, kappa0 {kappa0:.3e}, best x {:.3} -> fit {fit_lin:.2} -> {best:.2} %",
             x.exp()
-        );
-    }
+        )
+    });
     (best > fit_lin).then(|| (with(kappa0 * x.exp()), kappa0 * x.exp(), fit_lin, best))
 }
 
@@ -1497,16 +1512,16 @@ pub fn diagnose(
     let model = evl.model_at(pose).clone();
     let chi0 = chi(&model, &pts, twin.extensions.delay_s.unwrap_or(0.0));
     let chi_loc = chi_local(&model, &pts, twin.extensions.delay_s.unwrap_or(0.0));
-    if std::env::var_os("MTWIN_DEBUG_DIAGNOSE").is_some() {
-        eprintln!(
+    trace(|| {
+        format!(
             "diagnose: {} evidence, {} averages, noise share {:.3}, {} points, chi {chi0:.2}, local {chi_loc:.2}",
             ev.kind,
             ev.n_avg,
             ev.noise_share,
             pts.iter().map(|p| p.h.len()).sum::<usize>()
-        );
-    }
-    if std::env::var_os("MTWIN_DEBUG_DIAGNOSE").is_some() {
+        )
+    });
+    if tracing() {
         let mut worst: Vec<(f64, f64, String, f64)> = Vec::new();
         for p in &pts {
             let Some(ci) = model.channel_index(p.channel) else {
