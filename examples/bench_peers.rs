@@ -138,6 +138,7 @@ fn case_a(dir: &Path, machine: &ModalMachine) -> Res<Value> {
     write_frf_csv(&truth_path, &truth)?;
     let fit = worst_fit_frf(&est.frf, &truth, MACHINE_BAND);
     let nfft = (rec.fs() / est.df_hz).round() as usize;
+    let (ffts, floor_ms) = fft_floor(&rec, nfft, opts.overlap);
     println!(
         "a. FRF estimation: {} ({} lines), fit {fit:.3} %, {ms:.1} ms",
         est.method,
@@ -148,7 +149,40 @@ fn case_a(dir: &Path, machine: &ModalMachine) -> Res<Value> {
         "nfft": nfft, "overlap": opts.overlap, "band": [MACHINE_BAND.0, MACHINE_BAND.1],
         "method": est.method,
         "mtwin": {"fit": fit, "ms": ms, "note": "estimate_frf, default options"},
+        "fft_floor": {"ffts": ffts, "ms": floor_ms},
     }))
+}
+
+/// The Hann-windowed real FFTs of every Welch segment of every column of `rec`, and
+/// nothing else: the floor under any H1 estimate with these settings (count, median ms).
+fn fft_floor(rec: &TimeSeries, nfft: usize, overlap: f64) -> (usize, f64) {
+    let cols: Vec<&[f64]> = Axis::ALL
+        .into_iter()
+        .filter_map(|a| rec.force(a))
+        .chain(Axis::ALL.into_iter().filter_map(|a| rec.response(a)))
+        .collect();
+    let hop = nfft - (nfft as f64 * overlap).round() as usize;
+    let segs = (rec.len() - nfft) / hop + 1;
+    let window = identify::spectra::hann(nfft);
+    let plan = realfft::RealFftPlanner::<f64>::new().plan_fft_forward(nfft);
+    let (mut buf, mut out, mut scratch) = (
+        plan.make_input_vec(),
+        plan.make_output_vec(),
+        plan.make_scratch_vec(),
+    );
+    let ms = median_ms(9, || {
+        for s in 0..segs {
+            for c in &cols {
+                for ((b, x), w) in buf.iter_mut().zip(&c[s * hop..]).zip(&window) {
+                    *b = x * w;
+                }
+                plan.process_with_scratch(&mut buf, &mut out, &mut scratch)
+                    .expect("FFT buffers of the plan's sizes");
+            }
+        }
+        out[1]
+    });
+    (segs * cols.len(), ms)
 }
 
 fn case_b(dir: &Path) -> Res<Value> {
@@ -440,6 +474,9 @@ fn main() -> Res<()> {
             other => return Err(format!("MTWIN_BENCH_ONLY={other}: expected a..f").into()),
         };
         println!("{}", serde_json::to_string(&v["mtwin"])?);
+        if let Some(floor) = v.get("fft_floor") {
+            println!("FFT floor: {floor}");
+        }
         return Ok(());
     }
     let out = json!({

@@ -46,7 +46,7 @@
 //! ```
 
 mod data;
-mod linalg;
+pub(crate) mod linalg;
 mod varpro;
 mod vf;
 

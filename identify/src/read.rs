@@ -28,7 +28,8 @@ use std::path::Path;
 mod stream;
 pub(crate) use stream::changed_while_read;
 pub use stream::{
-    scan_timeseries, ColumnStats, RecordEnd, RecordScan, RowReader, MAX_COMMENTS, SUBSAMPLE_CAP,
+    scan_timeseries, subsample_stride, ColumnStats, RecordEnd, RecordScan, RowReader, MAX_COMMENTS,
+    SUBSAMPLE_CAP,
 };
 
 /// Minimum number of samples of a time-series record.

@@ -50,7 +50,11 @@
 //!     record (all records cut to the shortest). With `nfft` = the period length:
 //!     non-overlapping periods, averaged (coherence becomes meaningful).
 //!
-//! Plan once, run many: one real-FFT plan per estimate and reused scratch buffers.
+//! Plan once, run many: each thread keeps the real-FFT plans and Hann windows of the last
+//! few DFT lengths (a campaign estimates many records of one length), the spectra are
+//! transformed straight into reused buffers and accumulated line by line per channel
+//! pair, and the impact/continuous decision looks at the same systematic subsample of
+//! a long force as a streamed read does.
 //!
 //! ```
 //! use identify::spectra::{estimate_frf, FrfOptions, Excitation};
@@ -236,7 +240,9 @@ pub fn estimate_frf(records: &[TimeSeries], opts: &FrfOptions) -> Result<FrfEsti
                         v.len()
                     )));
                 }
-                if let Some(i) = v.iter().position(|x| !x.is_finite()) {
+                // x·0 is NaN exactly for NaN and ±Inf: one vectorised pass, then the position
+                if sum4(v, |x| x * 0.0) != 0.0 {
+                    let i = v.iter().position(|x| !x.is_finite()).unwrap_or(0);
                     return Err(Error::BadInput(format!(
                         "{}: {what} sample {i} is not finite; remove NaN/Inf from the record",
                         r.source
@@ -323,14 +329,17 @@ impl RecordInfo {
         for a in r.force_axes() {
             let f = r.force(a).unwrap_or(&[]);
             let n = f.len().max(1) as f64;
-            let m = f.iter().sum::<f64>() / n;
-            rms[a.index()] = (f.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / n).sqrt();
+            let m = sum4(f, |v| v) / n;
+            rms[a.index()] = (sum4(f, |v| (v - m) * (v - m)) / n).sqrt();
         }
         Self::from_stats(&r.source, rms, r.response_axes(), |a| {
             let f = r.force(a).unwrap_or(&[]);
-            let lo = f.iter().copied().fold(f64::INFINITY, f64::min);
-            let hi = f.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-            impulsive(f, (lo, hi))
+            let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+            for &v in f {
+                lo = if v < lo { v } else { lo };
+                hi = if v > hi { v } else { hi };
+            }
+            impulsive(&subsample(f), (lo, hi))
         })
     }
 
@@ -365,6 +374,29 @@ impl RecordInfo {
     }
 }
 
+/// `Σ g(v_i)` in four interleaved partial sums (the processor adds them in parallel; a
+/// single running sum waits for each addition).
+fn sum4(v: &[f64], g: impl Fn(f64) -> f64) -> f64 {
+    let mut p = [0.0; 4];
+    let chunks = v.chunks_exact(4);
+    let rest: f64 = chunks.remainder().iter().map(|&x| g(x)).sum();
+    for c in chunks {
+        for (p, &x) in p.iter_mut().zip(c) {
+            *p += g(x);
+        }
+    }
+    (p[0] + p[1]) + (p[2] + p[3]) + rest
+}
+
+/// The systematic subsample a streamed read keeps of a column
+/// ([`ColumnStats::subsample`](crate::read::ColumnStats::subsample), stride
+/// [`subsample_stride`](crate::read::subsample_stride)), so that a record in memory and the
+/// same file streamed are judged alike.
+fn subsample(f: &[f64]) -> Vec<f64> {
+    let stride = crate::read::subsample_stride(f.len());
+    f.iter().step_by(stride).copied().collect()
+}
+
 /// True when fewer than 2 % of `samples` deviate from their median by more than 20 % of
 /// the largest deviation, which is taken from the extremes `(min, max)` of the whole
 /// force (`samples` may be a subsample of it).
@@ -393,7 +425,6 @@ struct Ctx<'a> {
     opts: &'a FrfOptions,
     warnings: Vec<String>,
     dropped: Vec<String>,
-    planner: RealFftPlanner<f64>,
 }
 
 impl<'a> Ctx<'a> {
@@ -403,42 +434,71 @@ impl<'a> Ctx<'a> {
             opts,
             warnings: Vec::new(),
             dropped: Vec::new(),
-            planner: RealFftPlanner::new(),
         }
     }
+}
+
+/// DFT lengths whose plan and Hann window a thread keeps ([`cached`]).
+const PLAN_CACHE: usize = 4;
+
+type Planned = (Arc<dyn RealToComplex<f64>>, Arc<[f64]>);
+
+thread_local! {
+    /// The plans and Hann windows of the last [`PLAN_CACHE`] DFT lengths, most recent last.
+    static PLANS: std::cell::RefCell<Vec<(usize, Planned)>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
+/// The real-input DFT plan and the periodic Hann window of length `n`, kept per thread
+/// for the next estimates: a campaign estimates many records of one length, and the
+/// twiddle factors and the window of a 65536-point DFT cost about as much as one Welch
+/// average.
+fn cached(n: usize) -> Planned {
+    PLANS.with_borrow_mut(|plans| {
+        if let Some(i) = plans.iter().position(|(m, _)| *m == n) {
+            let hit = plans.remove(i);
+            plans.push(hit);
+        } else {
+            if plans.len() == PLAN_CACHE {
+                plans.remove(0);
+            }
+            let plan = RealFftPlanner::<f64>::new().plan_fft_forward(n);
+            plans.push((n, (plan, hann(n).into())));
+        }
+        plans[plans.len() - 1].1.clone()
+    })
 }
 
 /// A real-input DFT of fixed length with its buffers (planned once).
 struct RealDft {
     plan: Arc<dyn RealToComplex<f64>>,
     buf: Vec<f64>,
-    out: Vec<Complex64>,
     scratch: Vec<Complex64>,
+    nl: usize,
 }
 
 impl RealDft {
-    fn new(planner: &mut RealFftPlanner<f64>, n: usize) -> Self {
-        let plan = planner.plan_fft_forward(n);
+    fn new(n: usize) -> Self {
+        let plan = cached(n).0;
         RealDft {
             buf: plan.make_input_vec(),
-            out: plan.make_output_vec(),
             scratch: plan.make_scratch_vec(),
+            nl: n_lines(n),
             plan,
         }
     }
 
-    /// Transforms `self.buf` (filled by the caller) and stores lines `1..=nl` in `dst`,
-    /// each multiplied by `scale[k]` when given.
-    fn run_into(&mut self, dst: &mut [Complex64], scale: Option<&[Complex64]>) -> Result<()> {
+    /// Transforms `self.buf` (filled by the caller) into `dst` (the whole half spectrum,
+    /// line k at index k, the form [`Accumulator::add`] takes), lines `1..=nl` multiplied
+    /// by `scale[k - 1]` when given.
+    fn run_into(&mut self, dst: &mut Vec<Complex64>, scale: Option<&[Complex64]>) -> Result<()> {
+        dst.resize(self.plan.complex_len(), Complex64::default());
         self.plan
-            .process_with_scratch(&mut self.buf, &mut self.out, &mut self.scratch)
+            .process_with_scratch(&mut self.buf, dst, &mut self.scratch)
             .map_err(|e| Error::Numerical(format!("FFT failed: {e}")))?;
-        for (k, d) in dst.iter_mut().enumerate() {
-            let v = self.out[k + 1];
-            *d = match scale {
-                Some(s) => v * s[k],
-                None => v,
-            };
+        if let Some(s) = scale {
+            for (d, s) in dst[1..=self.nl].iter_mut().zip(s) {
+                *d *= s;
+            }
         }
         Ok(())
     }
@@ -454,11 +514,11 @@ struct Accumulator {
     inputs: Vec<Axis>,
     outputs: Vec<Axis>,
     nl: usize,
-    /// `[k][i][j] = Σ conj(F_i) F_j`
+    /// `[i][j][k] = Σ conj(F_i) F_j`
     gff: Vec<Complex64>,
-    /// `[k][i][o] = Σ conj(F_i) Y_o`
+    /// `[i][o][k] = Σ conj(F_i) Y_o`
     gfy: Vec<Complex64>,
-    /// `[k][o] = Σ |Y_o|²`
+    /// `[o][k] = Σ |Y_o|²`
     gyy: Vec<f64>,
     averages: usize,
 }
@@ -477,20 +537,38 @@ impl Accumulator {
         }
     }
 
+    /// Index of line `k` of the spectrum `a` (`a` = `i * ni + j` in `gff`, `i * no + o` in
+    /// `gfy`, `o` in `gyy`): channel-major, so that adding a segment runs along the lines.
+    #[inline]
+    fn at(&self, a: usize, k: usize) -> usize {
+        a * self.nl + k
+    }
+
+    /// Adds one average: the half spectra (line k at index k, as [`RealDft::run_into`]
+    /// writes them) of every input force and output response, in the accumulator's order.
     fn add(&mut self, fs: &[Vec<Complex64>], ys: &[Vec<Complex64>]) {
-        let (ni, no) = (self.inputs.len(), self.outputs.len());
-        for k in 0..self.nl {
-            for (i, fsi) in fs.iter().enumerate() {
-                let fi = fsi[k].conj();
-                for (j, fsj) in fs.iter().enumerate() {
-                    self.gff[(k * ni + i) * ni + j] += fi * fsj[k];
-                }
-                for (o, yo) in ys.iter().enumerate() {
-                    self.gfy[(k * ni + i) * no + o] += fi * yo[k];
+        let (ni, no, nl) = (self.inputs.len(), self.outputs.len(), self.nl);
+        fn lines(v: &[Complex64], nl: usize) -> &[Complex64] {
+            &v[1..=nl]
+        }
+        for (i, fi) in fs.iter().map(|v| lines(v, nl)).enumerate() {
+            for (j, fj) in fs.iter().map(|v| lines(v, nl)).enumerate() {
+                let g = &mut self.gff[(i * ni + j) * nl..(i * ni + j + 1) * nl];
+                for ((g, a), b) in g.iter_mut().zip(fi).zip(fj) {
+                    *g += a.conj() * b;
                 }
             }
-            for (o, yo) in ys.iter().enumerate() {
-                self.gyy[k * no + o] += yo[k].norm_sqr();
+            for (o, yo) in ys.iter().map(|v| lines(v, nl)).enumerate() {
+                let g = &mut self.gfy[(i * no + o) * nl..(i * no + o + 1) * nl];
+                for ((g, a), b) in g.iter_mut().zip(fi).zip(yo) {
+                    *g += a.conj() * b;
+                }
+            }
+        }
+        for (o, yo) in ys.iter().map(|v| lines(v, nl)).enumerate() {
+            let g = &mut self.gyy[o * nl..(o + 1) * nl];
+            for (g, y) in g.iter_mut().zip(yo) {
+                *g += y.norm_sqr();
             }
         }
         self.averages += 1;
@@ -501,7 +579,7 @@ impl Accumulator {
     fn force_band(&self) -> Option<(usize, usize)> {
         let ni = self.inputs.len();
         let p: Vec<f64> = (0..self.nl)
-            .map(|k| (0..ni).map(|i| self.gff[(k * ni + i) * ni + i].re).sum())
+            .map(|k| (0..ni).map(|i| self.gff[self.at(i * ni + i, k)].re).sum())
             .collect();
         let (kmax, &pmax) = p.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1))?;
         if pmax <= 0.0 {
@@ -541,14 +619,15 @@ impl Accumulator {
         let mut singular = 0;
         let mut a = vec![Complex64::default(); ni * ni];
         let mut b = vec![Complex64::default(); ni];
+        let mut h = vec![Complex64::default(); ni];
         for k in 0..nl {
             for o in 0..no {
-                let gyy = self.gyy[k * no + o];
+                let gyy = self.gyy[self.at(o, k)];
                 let mut coh = 0.0;
-                let mut h = vec![Complex64::default(); ni];
+                h.fill(Complex64::default());
                 if ni == 1 {
                     let gff = self.gff[k].re;
-                    let gfy = self.gfy[k * no + o];
+                    let gfy = self.gfy[self.at(o, k)];
                     if gff > 0.0 && gyy > 0.0 {
                         coh = (gfy.norm_sqr() / (gff * gyy)).clamp(0.0, 1.0);
                     }
@@ -573,14 +652,16 @@ impl Accumulator {
                         _ => Complex64::default(),
                     };
                 } else {
-                    a.copy_from_slice(&self.gff[k * ni * ni..(k + 1) * ni * ni]);
+                    for (ij, aij) in a.iter_mut().enumerate() {
+                        *aij = self.gff[self.at(ij, k)];
+                    }
                     for (i, bi) in b.iter_mut().enumerate() {
-                        *bi = self.gfy[(k * ni + i) * no + o];
+                        *bi = self.gfy[self.at(i * no + o, k)];
                     }
                     if solve_in_place(&mut a, &mut b, ni) {
                         h.copy_from_slice(&b);
                         let explained: f64 = (0..ni)
-                            .map(|i| (self.gfy[(k * ni + i) * no + o].conj() * h[i]).re)
+                            .map(|i| (self.gfy[self.at(i * no + o, k)].conj() * h[i]).re)
                             .sum();
                         if gyy > 0.0 {
                             coh = (explained / gyy).clamp(0.0, 1.0);
@@ -643,17 +724,24 @@ fn solve_in_place(a: &mut [Complex64], b: &mut [Complex64], n: usize) -> bool {
 }
 
 /// Per-line factor turning a response spectrum into displacement: `1/(jω+σ)²` for
-/// acceleration, 1 for displacement.
-fn to_displacement(kind: Option<ResponseKind>, n: usize, dt: f64, sigma: f64) -> Vec<Complex64> {
-    (1..=n_lines(n))
-        .map(|k| match kind {
-            Some(ResponseKind::Displacement) => Complex64::new(1.0, 0.0),
-            _ => {
+/// acceleration, `None` (factor 1) for displacement.
+fn to_displacement(
+    kind: Option<ResponseKind>,
+    n: usize,
+    dt: f64,
+    sigma: f64,
+) -> Option<Vec<Complex64>> {
+    if kind == Some(ResponseKind::Displacement) {
+        return None;
+    }
+    Some(
+        (1..=n_lines(n))
+            .map(|k| {
                 let s = Complex64::new(sigma, 2.0 * PI * k as f64 / (n as f64 * dt));
                 1.0 / (s * s)
-            }
-        })
-        .collect()
+            })
+            .collect(),
+    )
 }
 
 /// Groups records by their input axes (sorted by inputs), with the outputs common to all
@@ -824,19 +912,17 @@ fn welch_length(lens: &[usize], opts: &FrfOptions) -> Result<usize> {
 /// The Welch core shared by the in-memory and the streamed estimate: window, planned
 /// DFT and the spectra of one segment.
 struct Welch {
-    n: usize,
-    window: Vec<f64>,
+    window: Arc<[f64]>,
     dft: RealDft,
     fs: Vec<Vec<Complex64>>,
     ys: Vec<Vec<Complex64>>,
 }
 
 impl Welch {
-    fn new(planner: &mut RealFftPlanner<f64>, n: usize) -> Self {
+    fn new(n: usize) -> Self {
         Welch {
-            n,
-            window: hann(n),
-            dft: RealDft::new(planner, n),
+            window: cached(n).1,
+            dft: RealDft::new(n),
             fs: Vec::new(),
             ys: Vec::new(),
         }
@@ -848,22 +934,19 @@ impl Welch {
     fn add_segment<'x>(
         &mut self,
         acc: &mut Accumulator,
-        conv: &[Complex64],
+        conv: Option<&[Complex64]>,
         forces: impl ExactSizeIterator<Item = &'x [f64]>,
         responses: impl ExactSizeIterator<Item = &'x [f64]>,
     ) -> Result<()> {
-        let nl = n_lines(self.n);
-        self.fs
-            .resize_with(forces.len(), || vec![Complex64::default(); nl]);
-        self.ys
-            .resize_with(responses.len(), || vec![Complex64::default(); nl]);
+        self.fs.resize_with(forces.len(), Vec::new);
+        self.ys.resize_with(responses.len(), Vec::new);
         for (x, f) in forces.zip(self.fs.iter_mut()) {
             fill_windowed(&mut self.dft.buf, x, &self.window);
             self.dft.run_into(f, None)?;
         }
         for (x, y) in responses.zip(self.ys.iter_mut()) {
             fill_windowed(&mut self.dft.buf, x, &self.window);
-            self.dft.run_into(y, Some(conv))?;
+            self.dft.run_into(y, conv)?;
         }
         acc.add(&self.fs, &self.ys);
         Ok(())
@@ -909,7 +992,7 @@ fn welch_estimate(accs: Vec<Accumulator>, n: usize, ctx: &mut Ctx) -> Result<Frf
 fn continuous(records: &[TimeSeries], infos: &[RecordInfo], ctx: &mut Ctx) -> Result<FrfEstimate> {
     let lens: Vec<usize> = records.iter().map(TimeSeries::len).collect();
     let n = welch_length(&lens, ctx.opts)?;
-    let mut welch = Welch::new(&mut ctx.planner, n);
+    let mut welch = Welch::new(n);
     let nl = n_lines(n);
     let mut accs = Vec::new();
     for (inputs, outputs, members) in groups(infos, &mut ctx.warnings) {
@@ -927,7 +1010,7 @@ fn continuous(records: &[TimeSeries], infos: &[RecordInfo], ctx: &mut Ctx) -> Re
                 let seg = s * hop..s * hop + n;
                 welch.add_segment(
                     &mut acc,
-                    &conv,
+                    conv.as_deref(),
                     inputs
                         .iter()
                         .map(|&a| &rec.force(a).unwrap_or(&[])[seg.clone()]),
@@ -966,13 +1049,13 @@ fn chirp(records: &[TimeSeries], infos: &[RecordInfo], ctx: &mut Ctx) -> Result<
             "records have different lengths; all cut to the shortest ({min_len} samples)"
         ));
     }
-    let mut dft = RealDft::new(&mut ctx.planner, n);
+    let mut dft = RealDft::new(n);
     let nl = n_lines(n);
     let mut accs = Vec::new();
     for (inputs, outputs, members) in groups(infos, &mut ctx.warnings) {
         let mut acc = Accumulator::new(inputs.clone(), outputs.clone(), nl);
-        let mut fs = vec![vec![Complex64::default(); nl]; inputs.len()];
-        let mut ys = vec![vec![Complex64::default(); nl]; outputs.len()];
+        let mut fs = vec![Vec::new(); inputs.len()];
+        let mut ys = vec![Vec::new(); outputs.len()];
         for &r in &members {
             let rec = &records[r];
             let conv = to_displacement(rec.response_kind, n, ctx.dt, 0.0);
@@ -987,7 +1070,7 @@ fn chirp(records: &[TimeSeries], infos: &[RecordInfo], ctx: &mut Ctx) -> Result<
                 for (o, &a) in outputs.iter().enumerate() {
                     dft.buf
                         .copy_from_slice(&rec.response(a).unwrap_or(&[])[start..start + n]);
-                    dft.run_into(&mut ys[o], Some(&conv))?;
+                    dft.run_into(&mut ys[o], conv.as_deref())?;
                 }
                 acc.add(&fs, &ys);
             }

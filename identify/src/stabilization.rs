@@ -25,6 +25,7 @@
 
 use crate::error::{Error, Result};
 use crate::frf::Frf;
+use crate::rational_fit::linalg;
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
 use std::f64::consts::PI;
@@ -195,56 +196,79 @@ pub fn diagram(
         .map(|f| Complex64::from_polar(1.0, 2.0 * PI * f * ts))
         .collect();
 
-    // Toeplitz generators per channel: r(m) = Σ w² Ωᵐ, s(m) = Σ w² h Ωᵐ (m = -n..n),
-    // t(m) = Σ w² |h|² Ωᵐ.
-    let mut m_red = DMatrix::<f64>::zeros(n + 1, n + 1);
-    let mut blocks = Vec::with_capacity(frf.channels.len());
+    // Toeplitz generators per channel (only their real parts enter the real normal
+    // equations): r(m) = Σ w² cos mθ, t(m) = Σ w² |h|² cos mθ, and for the cross terms
+    // Re Σ w² h Ω^(±m) = a(m) ∓ b(m) with a(m) = Σ w² Re h cos mθ, b(m) = Σ w² Im h sin mθ
+    // (m = 0..n, θ the line's angle): one product of the cosine and sine tables
+    // (n+1 × lines) with the channels' weighted data.
+    // column m = cos mθ (sin mθ) of every line; the powers run along the lines, so the
+    // recurrence Ωᵐ⁺¹ = Ωᵐ Ω is one independent product per line
+    let mut cos = linalg::pooled_zeros(nf, n + 1);
+    let mut sin = linalg::pooled_zeros(nf, n + 1);
+    let mut z = vec![Complex64::new(1.0, 0.0); nf];
+    for m in 0..=n {
+        let (c, s) = (
+            &mut cos.as_mut_slice()[m * nf..(m + 1) * nf],
+            &mut sin.as_mut_slice()[m * nf..(m + 1) * nf],
+        );
+        for (((c, s), z), om) in c.iter_mut().zip(s).zip(&mut z).zip(&omegas) {
+            *c = z.re;
+            *s = z.im;
+            *z *= om;
+        }
+    }
+    let mut chans = Vec::with_capacity(frf.channels.len());
     for (ch, w) in frf.channels.iter().zip(weights) {
         let Some(scale) = crate::frf::weighted_rms(&ch.h, w) else {
             continue;
         };
-        let mut r = vec![Complex64::default(); n + 1];
-        let mut sp = vec![Complex64::default(); n + 1];
-        let mut sm = vec![Complex64::default(); n + 1];
-        let mut t = vec![Complex64::default(); n + 1];
+        chans.push((ch, w, scale));
+    }
+    let mut by_cos = DMatrix::<f64>::zeros(nf, 3 * chans.len());
+    let mut by_sin = DMatrix::<f64>::zeros(nf, chans.len());
+    for (c, (ch, w, scale)) in chans.iter().enumerate() {
         for k in 0..nf {
             let w2 = w[k] * w[k];
             if w2 == 0.0 {
                 continue;
             }
-            let h = ch.h[k] / scale;
+            let h = ch.h[k] / *scale;
             if !h.re.is_finite() || !h.im.is_finite() {
                 return Err(Error::BadInput(format!(
                     "channel {}: non-finite FRF value at {} Hz",
                     ch.channel, frf.freqs_hz[k]
                 )));
             }
-            let hw = h * w2;
-            let hc = h.norm_sqr() * w2;
-            let mut z = Complex64::new(1.0, 0.0);
-            for m in 0..=n {
-                r[m] += z * w2;
-                sp[m] += hw * z;
-                sm[m] += hw * z.conj();
-                t[m] += z * hc;
-                z *= omegas[k];
-            }
+            by_cos[(k, 3 * c)] = w2;
+            by_cos[(k, 3 * c + 1)] = h.norm_sqr() * w2;
+            by_cos[(k, 3 * c + 2)] = h.re * w2;
+            by_sin[(k, c)] = h.im * w2;
         }
-        let mut rr = DMatrix::<f64>::zeros(n + 1, n + 1);
-        let mut ss = DMatrix::<f64>::zeros(n + 1, n + 1);
-        let mut tt = DMatrix::<f64>::zeros(n + 1, n + 1);
-        for i in 0..=n {
-            for j in 0..=n {
-                let (rv, sv, tv) = if j >= i {
-                    (r[j - i], sp[j - i], t[j - i])
-                } else {
-                    (r[i - j].conj(), sm[i - j], t[i - j].conj())
-                };
-                rr[(i, j)] = rv.re;
-                ss[(i, j)] = -sv.re;
-                tt[(i, j)] = tv.re;
+    }
+    let gen_cos = cos.tr_mul(&by_cos);
+    let gen_sin = sin.tr_mul(&by_sin);
+    linalg::release(cos);
+    linalg::release(sin);
+    let mut m_red = DMatrix::<f64>::zeros(n + 1, n + 1);
+    let mut blocks = Vec::with_capacity(chans.len());
+    for c in 0..chans.len() {
+        let (r, t, a, b) = (
+            gen_cos.column(3 * c),
+            gen_cos.column(3 * c + 1),
+            gen_cos.column(3 * c + 2),
+            gen_sin.column(c),
+        );
+        let rr = DMatrix::from_fn(n + 1, n + 1, |i, j| r[i.abs_diff(j)]);
+        let tt = DMatrix::from_fn(n + 1, n + 1, |i, j| t[i.abs_diff(j)]);
+        // ss(i, j) = -Re s(j - i) for j ≥ i, -Re s̄(i - j) below
+        let ss = DMatrix::from_fn(n + 1, n + 1, |i, j| {
+            let m = i.abs_diff(j);
+            if j >= i {
+                b[m] - a[m]
+            } else {
+                -a[m] - b[m]
             }
-        }
+        });
         blocks.push((rr, ss, tt));
     }
     if blocks.is_empty() {

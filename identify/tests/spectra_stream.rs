@@ -6,7 +6,9 @@ mod spectra_common;
 use spectra_common::*;
 
 use identify::axis::Axis;
-use identify::read::{read_timeseries, scan_timeseries, write_timeseries, SUBSAMPLE_CAP};
+use identify::read::{
+    read_timeseries, scan_timeseries, subsample_stride, write_timeseries, SUBSAMPLE_CAP,
+};
 use identify::spectra::{
     estimate_frf, estimate_frf_streamed, excitation_of_scan, Estimator, Excitation, FrfEstimate,
     FrfOptions,
@@ -327,4 +329,23 @@ fn scan_statistics_match_the_record() {
     let r = (fx.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / fx.len() as f64).sqrt();
     assert!((s.mean - m).abs() < 1e-12 && (s.rms - r).abs() < 1e-12 * r);
     assert!(scan.force[2].is_none());
+}
+
+#[test]
+fn long_column_subsample_is_every_stride_th_sample() {
+    // the in-memory estimate judges impulsiveness on the same subsample (same stride rule)
+    let dir = tempfile::tempdir().unwrap();
+    let n = 2 * SUBSAMPLE_CAP + 3;
+    let ts = siso_record(n, ResponseKind::Displacement, 4);
+    let p = write(dir.path(), "long.csv", &ts);
+    let scan = scan_timeseries(&p).unwrap();
+    let back = read_timeseries(&p).unwrap();
+    let fx = back.force(Axis::X).unwrap();
+    let stride = subsample_stride(n);
+    assert_eq!(stride, 4);
+    let s = scan.force[0].as_ref().unwrap();
+    assert_eq!(s.subsample_stride, stride);
+    let expect: Vec<f64> = fx.iter().step_by(stride).copied().collect();
+    assert_eq!(s.subsample, expect);
+    assert!(s.subsample.len() <= SUBSAMPLE_CAP);
 }

@@ -27,7 +27,7 @@ thread_local! {
 
 /// A zero `rows × cols` matrix, its buffer taken from this thread's pool when one is
 /// large enough.
-fn pooled_zeros(rows: usize, cols: usize) -> DMatrix<f64> {
+pub(crate) fn pooled_zeros(rows: usize, cols: usize) -> DMatrix<f64> {
     let n = rows * cols;
     let mut v = POOL
         .with(|p| {
@@ -44,7 +44,7 @@ fn pooled_zeros(rows: usize, cols: usize) -> DMatrix<f64> {
 }
 
 /// Hands the buffer of `m` back to this thread's pool (dropped when the pool is full).
-fn release(m: DMatrix<f64>) {
+pub(crate) fn release(m: DMatrix<f64>) {
     let v: Vec<f64> = m.data.into();
     if v.capacity() < 4096 {
         return;
@@ -120,8 +120,12 @@ impl ScaledGram {
     /// Of `t.a`. `None` when a column is zero or not finite, or the smallest pivot is
     /// below [`MIN_PIVOT`].
     pub(crate) fn new(t: &Tall) -> Option<ScaledGram> {
-        let n = t.a.ncols();
-        let g = &t.at * &t.a;
+        Self::of_gram(&t.at * &t.a)
+    }
+
+    /// From the Gram matrix `aᵀa` itself.
+    pub(crate) fn of_gram(g: DMatrix<f64>) -> Option<ScaledGram> {
+        let n = g.ncols();
         let d: Vec<f64> = (0..n).map(|j| g[(j, j)].sqrt()).collect();
         if d.iter().any(|v| !(v.is_finite() && *v > 0.0)) {
             return None;
@@ -157,11 +161,20 @@ impl ScaledGram {
 /// matrix product instead of a QR of the tall matrix. `None` when the scaled Gram
 /// matrix is too ill-conditioned (see the module docs): use the QR.
 pub(crate) fn trailing_r(t: &Tall, k: usize) -> Option<DMatrix<f64>> {
-    let n = t.a.ncols();
-    if k > n || t.a.nrows() < n {
+    if t.a.nrows() < t.a.ncols() {
         return None;
     }
-    let g = ScaledGram::new(t)?;
+    trailing_r_of_gram(&t.at * &t.a, k)
+}
+
+/// [`trailing_r`] from the Gram matrix `aᵀa` of a matrix with at least as many rows as
+/// columns.
+pub(crate) fn trailing_r_of_gram(g: DMatrix<f64>, k: usize) -> Option<DMatrix<f64>> {
+    let n = g.ncols();
+    if k > n {
+        return None;
+    }
+    let g = ScaledGram::of_gram(g)?;
     let l = g.chol.l();
     // R = Lᵀ D (a = a_s D, a_s = Q Lᵀ)
     let out = DMatrix::from_fn(n - k, n - k, |i, j| l[(k + j, k + i)] * g.d[k + j]);

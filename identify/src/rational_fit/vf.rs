@@ -7,9 +7,15 @@
 //! (eigenvalues of `A − b c̃ᵀ / d̃`) are the new poles. Unstable poles are flipped
 //! into the left half plane. A complex pair `p, p̄` uses the real basis functions
 //! `1/(s−p) + 1/(s−p̄)` and `j/(s−p) − j/(s−p̄)`.
+//!
+//! Only the σ block of each channel's triangular factor is needed. It comes from the
+//! channel's Gram matrix, which the partial-fraction structure of the basis gives from
+//! a few sums per pole (O(lines × poles), no design matrix; see `structured_gram`),
+//! when that matrix is well conditioned; otherwise from the design, by its Gram matrix or
+//! its Householder QR.
 
 use super::data::Prepared;
-use super::linalg::{lstsq, trailing_r, Tall};
+use super::linalg::{lstsq, trailing_r, trailing_r_of_gram, Tall};
 use crate::model::Mode;
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
@@ -43,6 +49,140 @@ fn basis_row(s: Complex64, poles: &[Complex64], out: &mut Vec<Complex64>) {
             out.push(1.0 / (s - p));
         }
     }
+}
+
+/// The Gram matrix `Re(Dᴴ D)` of one channel's design `D = [Φ̃ W, −diag(h) Φ̃ W]`
+/// (`Φ̃` = the basis of `poles` and a constant column, `W` = the weights), built in
+/// O(lines × poles) instead of O(lines × columns²) and without the design itself.
+///
+/// With `s = jω` on the imaginary axis, `conj(1/(s − q)) = −1/(s + q̄)`, and every entry
+/// of `Ψᴴ diag(v) Ψ` for the partial fractions `ψ_a = 1/(s − q_a)` splits into partial
+/// fractions: `Σ_k v_k conj(ψ_a) ψ_b = −(S_v(q_b) − S_v(−q̄_a)) / (q_b + q̄_a)` with the
+/// sums `S_v(q) = Σ_k v_k / (s_k − q)`, for `v = w², w² h, w² |h|²`; the real basis of a
+/// pair is `Φ̃ = Ψ̃ T`. Both poles of an entry lie in the left half plane, so
+/// `Re(q_b + q̄_a) < 0` and the divisor never vanishes; `None` when it is tiny against
+/// the poles or an entry is not finite (the caller then forms the design).
+fn structured_gram(
+    s: &[Complex64],
+    w: &[f64],
+    h: &[Complex64],
+    poles: &[Complex64],
+) -> Option<DMatrix<f64>> {
+    let j = Complex64::new(0.0, 1.0);
+    let mut q = Vec::new();
+    for &p in poles {
+        q.push(p);
+        if p.im > 0.0 {
+            q.push(p.conj());
+        }
+    }
+    let kq = q.len();
+    let m = kq + 1;
+    // the fitted lines, column by column (y = Im s; v = w², w² h, w² |h|²)
+    let mut cols: [Vec<f64>; 5] = Default::default();
+    let mut tot = [Complex64::default(); 3];
+    for ((&sk, &wk), &hk) in s.iter().zip(w).zip(h) {
+        let w2 = wk * wk;
+        if w2 == 0.0 {
+            continue;
+        }
+        let v = [w2, hk.re * w2, hk.im * w2, hk.norm_sqr() * w2];
+        tot[0] += v[0];
+        tot[1] += Complex64::new(v[1], v[2]);
+        tot[2] += v[3];
+        cols[0].push(sk.im);
+        for (c, x) in cols[1..].iter_mut().zip(v) {
+            c.push(x);
+        }
+    }
+    // S_v(q_a) and S_v(−q̄_a). With s = jy, 1/(s + q̄) = −conj(1/(s − q)): one division
+    // per line and pole, and for real v, S_v(−q̄) = −conj(S_v(q)).
+    let mut sq = vec![[Complex64::default(); 3]; kq];
+    let mut sm = vec![[Complex64::default(); 3]; kq];
+    for (a, &qa) in q.iter().enumerate() {
+        let sums = pole_sums(&cols, qa);
+        let c = |i: usize| Complex64::new(sums[2 * i], sums[2 * i + 1]);
+        let (s1, s2, s3, t2) = (c(0), c(1), c(2), c(3));
+        sq[a] = [s1, s2, s3];
+        sm[a] = [-s1.conj(), -t2, -s3.conj()];
+    }
+    // Ψ̃ᴴ diag(v) Ψ̃, then Φ̃ᴴ diag(v) Φ̃ = Tᴴ (…) T
+    let mut t = DMatrix::<Complex64>::zeros(m, m);
+    let mut col = 0;
+    for &p in poles {
+        if p.im > 0.0 {
+            t[(col, col)] = Complex64::new(1.0, 0.0);
+            t[(col + 1, col)] = Complex64::new(1.0, 0.0);
+            t[(col, col + 1)] = j;
+            t[(col + 1, col + 1)] = -j;
+            col += 2;
+        } else {
+            t[(col, col)] = Complex64::new(1.0, 0.0);
+            col += 1;
+        }
+    }
+    t[(kq, kq)] = Complex64::new(1.0, 0.0);
+    let mut blocks = Vec::with_capacity(3);
+    for i in 0..3 {
+        let mut c = DMatrix::<Complex64>::zeros(m, m);
+        for a in 0..kq {
+            for b in 0..kq {
+                let den = q[b] + q[a].conj();
+                if !(den.norm() > 1e-12 * (q[a].norm() + q[b].norm())) {
+                    return None;
+                }
+                c[(a, b)] = -(sq[b][i] - sm[a][i]) / den;
+            }
+            c[(a, kq)] = -sm[a][i];
+            c[(kq, a)] = sq[a][i];
+        }
+        c[(kq, kq)] = tot[i];
+        blocks.push(t.adjoint() * c * &t);
+    }
+    // D = [Φ̃ W, −diag(h) Φ̃ W]: Dᴴ D = [[B(w²), −B(w² h)], [−B(w² h)ᴴ, B(w² |h|²)]]
+    let g = DMatrix::from_fn(2 * m, 2 * m, |r, c| match (r < m, c < m) {
+        (true, true) => blocks[0][(r, c)].re,
+        (true, false) => -blocks[1][(r, c - m)].re,
+        (false, true) => -blocks[1][(c, r - m)].re,
+        (false, false) => blocks[2][(r - m, c - m)].re,
+    });
+    g.iter().all(|v| v.is_finite()).then_some(g)
+}
+
+/// For one pole `q` and the fitted lines `cols` = (Im s, w², Re w²h, Im w²h, w²|h|²):
+/// the sums over the lines of `w² r`, `w²h r`, `w²|h|² r` and `w²h r̄` with
+/// `r = 1/(s − q)`, as four (re, im) pairs. Four independent partial sums per value so
+/// that the processor runs lines side by side.
+fn pole_sums(cols: &[Vec<f64>; 5], q: Complex64) -> [f64; 8] {
+    const L: usize = 4;
+    let mut acc = [[0.0f64; L]; 8];
+    let (qr, qi) = (q.re, q.im);
+    let qr2 = qr * qr;
+    let n = cols[0].len();
+    let full = n - n % L;
+    let add = |l: usize, k: usize, acc: &mut [[f64; L]; 8]| {
+        let x = cols[0][k] - qi;
+        let d = 1.0 / (qr2 + x * x);
+        let (rr, ri) = (-qr * d, -x * d);
+        let (w2, vr, vi, w2h2) = (cols[1][k], cols[2][k], cols[3][k], cols[4][k]);
+        acc[0][l] += w2 * rr;
+        acc[1][l] += w2 * ri;
+        acc[2][l] += vr * rr - vi * ri;
+        acc[3][l] += vr * ri + vi * rr;
+        acc[4][l] += w2h2 * rr;
+        acc[5][l] += w2h2 * ri;
+        acc[6][l] += vr * rr + vi * ri;
+        acc[7][l] += vi * rr - vr * ri;
+    };
+    for k0 in (0..full).step_by(L) {
+        for l in 0..L {
+            add(l, k0 + l, &mut acc);
+        }
+    }
+    for k in full..n {
+        add(0, k, &mut acc);
+    }
+    acc.map(|a| a.iter().sum())
 }
 
 /// Runs up to `iters` pole relocations on `poles` (scaled units, one entry per pair with
@@ -91,12 +231,6 @@ fn step(p: &Prepared, poles: &[Complex64]) -> Option<Vec<Complex64>> {
     let m = nb + 1; // per block: φ columns + constant
     let nl = p.n_lines();
     let mut phi = Vec::with_capacity(nb);
-    let phis: Vec<Vec<Complex64>> = (0..nl)
-        .map(|k| {
-            basis_row(p.s[k], poles, &mut phi);
-            phi.clone()
-        })
-        .collect();
     let n_ch = p.channels.len();
     let mut big = DMatrix::<f64>::zeros(n_ch * m + 1, m);
     let mut row = 0;
@@ -106,25 +240,36 @@ fn step(p: &Prepared, poles: &[Complex64]) -> Option<Vec<Complex64>> {
         if lines.is_empty() {
             continue;
         }
+        relax_scale += lines
+            .iter()
+            .map(|&k| (p.h[ci][k] * p.w[ci][k]).norm_sqr())
+            .sum::<f64>();
+        if lines.len() < m {
+            // too few lines in this channel for its own unknowns: skip it for σ
+            continue;
+        }
+        // only the σ block of R is needed: from the Gram matrix when it is well
+        // conditioned — built from partial-fraction sums, or from the design — else from
+        // the Householder QR of the design
+        if let Some(r22) =
+            structured_gram(&p.s, &p.w[ci], &p.h[ci], poles).and_then(|g| trailing_r_of_gram(g, m))
+        {
+            big.view_mut((row, 0), (m, m)).copy_from(&r22);
+            row += m;
+            continue;
+        }
         let mut d = Tall::zeros(lines.len(), 2 * m);
         for (i, &k) in lines.iter().enumerate() {
             let w = p.w[ci][k];
             let h = p.h[ci][k];
-            for (j, f) in phis[k].iter().enumerate() {
+            basis_row(p.s[k], poles, &mut phi);
+            for (j, f) in phi.iter().enumerate() {
                 d.set(i, j, f * w);
                 d.set(i, m + j, -(f * h) * w);
             }
             d.set(i, nb, Complex64::new(w, 0.0));
             d.set(i, m + nb, -h * w);
-            relax_scale += (h * w).norm_sqr();
         }
-        if d.a.nrows() < 2 * m {
-            // too few lines in this channel for its own unknowns: skip it for σ
-            d.release();
-            continue;
-        }
-        // only the σ block of R is needed: from the Gram matrix when it is well
-        // conditioned (about 5x faster), else from the Householder QR
         let r22 = match trailing_r(&d, m) {
             Some(r) => {
                 d.release();
@@ -141,8 +286,9 @@ fn step(p: &Prepared, poles: &[Complex64]) -> Option<Vec<Complex64>> {
     // relaxation row: Re Σ_k σ(s_k) = N, scaled like the data
     let scale = relax_scale.sqrt() / nl as f64;
     let mut sum = vec![0.0; m];
-    for ph in &phis {
-        for (j, f) in ph.iter().enumerate() {
+    for &sk in &p.s {
+        basis_row(sk, poles, &mut phi);
+        for (j, f) in phi.iter().enumerate() {
             sum[j] += f.re;
         }
     }
@@ -236,4 +382,84 @@ pub(crate) fn modes_to_poles(modes: &[Mode]) -> Vec<Complex64> {
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The partial-fraction Gram matrix equals `aᵀa` of the design it replaces.
+    #[test]
+    fn structured_gram_matches_the_design() {
+        let nl = 400;
+        let s: Vec<Complex64> = (0..nl)
+            .map(|k| Complex64::new(0.0, 0.05 + 1.2 * k as f64 / nl as f64))
+            .collect();
+        // light (1e-4) and heavy damping, one real pole
+        let poles = vec![
+            Complex64::new(-3e-5, 0.3),
+            Complex64::new(-2e-3, 0.5),
+            Complex64::new(-0.05, 0.8),
+            Complex64::new(-0.4, 0.0),
+        ];
+        let w: Vec<f64> = (0..nl)
+            .map(|k| {
+                if k % 7 == 3 {
+                    0.0
+                } else {
+                    1.0 + 0.5 * (k as f64 * 0.1).sin()
+                }
+            })
+            .collect();
+        // a resonance with irregular (noise-like) departures: a well-conditioned design
+        let h: Vec<Complex64> = s
+            .iter()
+            .enumerate()
+            .map(|(k, &sk)| {
+                let k = k as f64;
+                (1.0 + 0.3 * (1.7 * k).sin()) / (sk * sk + 0.02 * sk + 0.42)
+                    + Complex64::new(0.0, 0.2 * (0.37 * k * k).cos())
+            })
+            .collect();
+        let nb = n_basis(&poles);
+        let m = nb + 1;
+        let mut d = Tall::zeros(nl, 2 * m);
+        let mut phi = Vec::new();
+        for k in 0..nl {
+            basis_row(s[k], &poles, &mut phi);
+            phi.push(Complex64::new(1.0, 0.0));
+            for (c, f) in phi.iter().enumerate() {
+                d.set(k, c, f * w[k]);
+                d.set(k, m + c, -(f * h[k]) * w[k]);
+            }
+        }
+        let explicit = &d.at * &d.a;
+        let g = structured_gram(&s, &w, &h, &poles).expect("stable poles");
+        // compare entries against the geometric mean of their diagonals (the scaled
+        // Gram matrix the Cholesky factor sees)
+        for r in 0..2 * m {
+            for c in 0..2 * m {
+                let scale = (explicit[(r, r)] * explicit[(c, c)]).sqrt();
+                let err = (g[(r, c)] - explicit[(r, c)]).abs() / scale;
+                assert!(err < 1e-10, "entry ({r}, {c}): {err:e}");
+            }
+        }
+        // and the σ block of R agrees (up to the signs of its rows)
+        let r_fast = trailing_r_of_gram(g, m).expect("well conditioned");
+        let r_qr = d.into_a().qr().r().view((m, m), (m, m)).into_owned();
+        for i in 0..m {
+            for k in i..m {
+                let err = (r_fast[(i, k)].abs() - r_qr[(i, k)].abs()).abs() / r_qr[(i, i)].abs();
+                assert!(err < 1e-7, "R({i}, {k}): {err:e}");
+            }
+        }
+    }
+
+    #[test]
+    fn structured_gram_refuses_a_pole_on_the_axis() {
+        let s = vec![Complex64::new(0.0, 0.5); 4];
+        let poles = vec![Complex64::new(0.0, 0.3)];
+        let g = structured_gram(&s, &[1.0; 4], &[Complex64::new(1.0, 0.0); 4], &poles);
+        assert!(g.is_none());
+    }
 }

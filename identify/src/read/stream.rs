@@ -34,6 +34,17 @@ pub const MAX_COMMENTS: usize = 256;
 /// Largest number of samples per force column kept in [`ColumnStats::subsample`].
 pub const SUBSAMPLE_CAP: usize = 1 << 16;
 
+/// Stride of the systematic subsample kept of a column of `n` samples
+/// ([`ColumnStats::subsample`]): the smallest power of two that leaves at most
+/// [`SUBSAMPLE_CAP`] samples.
+pub fn subsample_stride(n: usize) -> usize {
+    let mut stride = 1;
+    while n.div_ceil(stride) > SUBSAMPLE_CAP {
+        stride *= 2;
+    }
+    stride
+}
+
 /// A time-series CSV read one row at a time (module docs).
 #[derive(Debug)]
 pub struct RowReader {

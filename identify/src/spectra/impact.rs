@@ -150,7 +150,7 @@ pub(super) fn estimate(
     }
     let sigma = io.exp_window_sigma.unwrap_or(sigma_auto).max(0.0);
 
-    let mut dft = RealDft::new(&mut ctx.planner, n);
+    let mut dft = RealDft::new(n);
     let nl = n_lines(n);
     let mut accs = Vec::new();
     let mut fwin = vec![0.0; n];
@@ -165,8 +165,8 @@ pub(super) fn estimate(
             .filter(|a| group.iter().all(|h| infos[h.record].outputs.contains(a)))
             .collect();
         let mut acc = Accumulator::new(vec![input], outputs.clone(), nl);
-        let mut fs = vec![vec![Complex64::default(); nl]; 1];
-        let mut ys = vec![vec![Complex64::default(); nl]; outputs.len()];
+        let mut fs = vec![Vec::new(); 1];
+        let mut ys = vec![Vec::new(); outputs.len()];
         for h in group {
             let rec = &records[h.record];
             let conv = to_displacement(rec.response_kind, n, ctx.dt, sigma);
@@ -190,7 +190,7 @@ pub(super) fn estimate(
                 for (i, b) in dft.buf.iter_mut().enumerate() {
                     *b = if i < avail { y[i] * ewin[i] } else { 0.0 };
                 }
-                dft.run_into(&mut ys[o], Some(&conv))?;
+                dft.run_into(&mut ys[o], conv.as_deref())?;
             }
             acc.add(&fs, &ys);
         }

@@ -64,7 +64,7 @@ pub fn estimate_frf_streamed(scan: &RecordScan, opts: &FrfOptions) -> Result<Frf
     let info = RecordInfo::from_scan(scan)?;
     let mut ctx = Ctx::new(scan.dt, opts);
     let n = welch_length(&[scan.rows], opts)?;
-    let mut welch = Welch::new(&mut ctx.planner, n);
+    let mut welch = Welch::new(n);
     let mut accs = Vec::new();
     for (inputs, outputs, _) in groups(std::slice::from_ref(&info), &mut ctx.warnings) {
         let mut acc = Accumulator::new(inputs.clone(), outputs.clone(), n_lines(n));
@@ -93,7 +93,7 @@ pub fn estimate_frf_streamed(scan: &RecordScan, opts: &FrfOptions) -> Result<Frf
                     if done < count {
                         welch.add_segment(
                             &mut acc,
-                            &conv,
+                            conv.as_deref(),
                             rings[..ni].iter().map(Vec::as_slice),
                             rings[ni..].iter().map(Vec::as_slice),
                         )?;
