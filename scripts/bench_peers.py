@@ -429,11 +429,15 @@ def main():
         "2-input H1 of the same milling records (same nfft, Hann, 50 %) in 30-1500 Hz.",
         "* a: the mtwin and scipy H1 use the same nfft, periodic Hann window and 50 % "
         "overlap; scipy removes each segment's mean (its default), mtwin does not.",
+        "* a, floor: only the Hann-windowed real FFTs every Welch H1 with these settings needs "
+        "(each segment of the force and both responses), nothing else; rustfft in mtwin's "
+        "loop, scipy.fft in one batched call. Any H1 at 10x scipy's speed would have to fit "
+        "in about the time of these FFTs alone.",
         "* d, all cores: the same call inside a rayon pool of `available_parallelism()` "
         "threads (poses' FRFs and fits in parallel; the mode tracking across poses runs in "
         "sequence). Every other row, mtwin's included, is one thread.",
         "* The machine is shared (other checkouts may build at the same time): times vary by "
-        "up to about 30 % between runs of the script (b, mtwin: 15-19 ms over runs of this "
+        "up to about 30 % between runs of the script (b, mtwin: 11.7-12.9 ms over runs of this "
         "commit); the fits do not change.",
     ]
     text = "\n".join(head) + "\n" + tab.markdown() + "\n" + "\n".join(notes) + "\n"
