@@ -51,10 +51,10 @@
 //!     non-overlapping periods, averaged (coherence becomes meaningful).
 //!
 //! Plan once, run many: each thread keeps the real-FFT plans and Hann windows of the last
-//! few DFT lengths (a campaign estimates many records of one length), the spectra are
-//! transformed straight into reused buffers and accumulated line by line per channel
-//! pair, and the impact/continuous decision looks at the same systematic subsample of
-//! a long force as a streamed read does.
+//! few DFT lengths up to 2^20 points (a campaign estimates many records of one length),
+//! the spectra are transformed straight into reused buffers and accumulated line by line
+//! per channel pair, and the impact/continuous decision looks at the same systematic
+//! subsample of a long force as a streamed read does.
 //!
 //! ```
 //! use identify::spectra::{estimate_frf, FrfOptions, Excitation};
@@ -438,34 +438,57 @@ impl<'a> Ctx<'a> {
     }
 }
 
-/// DFT lengths whose plan and Hann window a thread keeps ([`cached`]).
+/// DFT lengths whose plan (and Hann window) a thread keeps ([`kept`]).
 const PLAN_CACHE: usize = 4;
+/// Longest DFT a thread keeps: a chirp record transformed whole (millions of points) is
+/// planned for its estimate and dropped with it.
+const PLAN_CACHE_MAX_LEN: usize = 1 << 20;
 
-type Planned = (Arc<dyn RealToComplex<f64>>, Arc<[f64]>);
+type Plan = Arc<dyn RealToComplex<f64>>;
+type Cache<T> = std::cell::RefCell<Vec<(usize, T)>>;
 
 thread_local! {
-    /// The plans and Hann windows of the last [`PLAN_CACHE`] DFT lengths, most recent last.
-    static PLANS: std::cell::RefCell<Vec<(usize, Planned)>> = const { std::cell::RefCell::new(Vec::new()) };
+    /// Real-FFT plans of the last [`PLAN_CACHE`] DFT lengths, most recent last.
+    static PLANS: Cache<Plan> = const { std::cell::RefCell::new(Vec::new()) };
+    /// Periodic Hann windows, likewise.
+    static WINDOWS: Cache<Arc<[f64]>> = const { std::cell::RefCell::new(Vec::new()) };
 }
 
-/// The real-input DFT plan and the periodic Hann window of length `n`, kept per thread
-/// for the next estimates: a campaign estimates many records of one length, and the
-/// twiddle factors and the window of a 65536-point DFT cost about as much as one Welch
-/// average.
-fn cached(n: usize) -> Planned {
-    PLANS.with_borrow_mut(|plans| {
-        if let Some(i) = plans.iter().position(|(m, _)| *m == n) {
-            let hit = plans.remove(i);
-            plans.push(hit);
+/// The entry of length `n` of a per-thread cache, made by `make` when missing: a
+/// campaign estimates many records of one length, and the twiddle factors and the
+/// window of a 65536-point DFT cost about as much as one Welch average.
+fn kept<T: Clone>(
+    cache: &'static std::thread::LocalKey<Cache<T>>,
+    n: usize,
+    make: impl FnOnce() -> T,
+) -> T {
+    if n > PLAN_CACHE_MAX_LEN {
+        return make();
+    }
+    cache.with_borrow_mut(|c| {
+        if let Some(i) = c.iter().position(|(m, _)| *m == n) {
+            let hit = c.remove(i);
+            c.push(hit);
         } else {
-            if plans.len() == PLAN_CACHE {
-                plans.remove(0);
+            if c.len() == PLAN_CACHE {
+                c.remove(0);
             }
-            let plan = RealFftPlanner::<f64>::new().plan_fft_forward(n);
-            plans.push((n, (plan, hann(n).into())));
+            c.push((n, make()));
         }
-        plans[plans.len() - 1].1.clone()
+        c[c.len() - 1].1.clone()
     })
+}
+
+/// The forward real-FFT plan of length `n` ([`kept`]).
+fn plan(n: usize) -> Plan {
+    kept(&PLANS, n, || {
+        RealFftPlanner::<f64>::new().plan_fft_forward(n)
+    })
+}
+
+/// The periodic Hann window of length `n` ([`kept`]).
+fn hann_kept(n: usize) -> Arc<[f64]> {
+    kept(&WINDOWS, n, || hann(n).into())
 }
 
 /// A real-input DFT of fixed length with its buffers (planned once).
@@ -478,7 +501,7 @@ struct RealDft {
 
 impl RealDft {
     fn new(n: usize) -> Self {
-        let plan = cached(n).0;
+        let plan = plan(n);
         RealDft {
             buf: plan.make_input_vec(),
             scratch: plan.make_scratch_vec(),
@@ -921,7 +944,7 @@ struct Welch {
 impl Welch {
     fn new(n: usize) -> Self {
         Welch {
-            window: cached(n).1,
+            window: hann_kept(n),
             dft: RealDft::new(n),
             fs: Vec::new(),
             ys: Vec::new(),
@@ -1097,6 +1120,25 @@ pub use stream::{estimate_frf_streamed, excitation_of_scan};
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn plan_cache_keeps_the_last_few_short_lengths_only() {
+        for n in [64, 128, 256, 512, 1024, 64] {
+            let p = plan(n);
+            assert_eq!(p.len(), n);
+        }
+        let kept: Vec<usize> = PLANS.with_borrow(|c| c.iter().map(|(n, _)| *n).collect());
+        assert_eq!(
+            kept,
+            vec![256, 512, 1024, 64],
+            "least recent dropped, hit moved last"
+        );
+        let long = PLAN_CACHE_MAX_LEN + 2;
+        assert_eq!(plan(long).len(), long);
+        assert_eq!(hann_kept(long).len(), long);
+        assert!(PLANS.with_borrow(|c| c.iter().all(|(n, _)| *n <= PLAN_CACHE_MAX_LEN)));
+        assert!(WINDOWS.with_borrow(|c| c.iter().all(|(n, _)| *n <= PLAN_CACHE_MAX_LEN)));
+    }
 
     #[test]
     fn solver_matches_known_solution() {
