@@ -290,7 +290,7 @@ fn acquire_at(
 /// Milling records ([`MILL_SECONDS`] each, 3-tooth cutter, mechanistic force plus a
 /// [`MILL_BROADBAND`] share, forces and responses along x and y), one per cut. With
 /// `duffing = Some((k, γ))` mode `k` has the cubic modal stiffness γ
-/// ([`duffing_response`]).
+/// ([`Duffing::response`]).
 pub fn milling_tests(
     m: &ModalMachine,
     cuts: &[Cut],
@@ -305,7 +305,13 @@ pub fn milling_tests(
             let (forces, s) = cut_forces(c, i, seed);
             let pose = c.pose;
             let resp = match duffing {
-                Some((k, g)) => duffing_response(m, k, g, &forces, fs, pose, &AXES, daq.response),
+                Some((mode, gamma)) => Duffing {
+                    machine: m,
+                    mode,
+                    gamma,
+                    pose,
+                }
+                .response(&forces, fs, &AXES, daq.response),
                 None => simulate_machine(m, &forces, fs, &move |_t| pose, &AXES, daq.response),
             };
             acquire_at(
@@ -340,7 +346,13 @@ pub fn duffing_gamma(m: &ModalMachine, k: usize, shift: f64, cuts: &[Cut], seed:
         .enumerate()
         .map(|(i, c)| {
             let (f, _) = cut_forces(c, i, seed);
-            let (eta, _) = duffing_motion(m, k, 0.0, &f, fs, c.pose);
+            let linear = Duffing {
+                machine: m,
+                mode: k,
+                gamma: 0.0,
+                pose: c.pose,
+            };
+            let (eta, _) = linear.motion(&f, fs);
             eta.iter().map(|e| e * e).sum::<f64>() / eta.len().max(1) as f64
         })
         .fold(0.0, f64::max);
@@ -526,7 +538,7 @@ pub fn without_cross_channels(twin: &Twin) -> Twin {
 /// coefficient is chosen so that at the response amplitude of `ref_peak` N hits the
 /// mode's backbone frequency is `shift` higher (hardening; negative = softening). The
 /// other modes stay linear (exact simulation); mode `k` is integrated with RK4 at the
-/// simulation rate ([`duffing_response`]).
+/// simulation rate ([`Duffing::response`]).
 #[allow(clippy::too_many_arguments)]
 pub fn duffing_tests_at(
     m: &ModalMachine,
@@ -556,7 +568,13 @@ pub fn duffing_tests_at(
             let hs = hit_series(5, 0.02, spacing, peak, 2.5e-4, seed + ai as u64);
             let mut forces: [Option<Vec<f64>>; 3] = [None, None, None];
             forces[axis.index()] = Some(impacts(fs, n, &hs, None));
-            let resp = duffing_response(m, k, gamma, &forces, fs, pose, out, daq.response);
+            let cubic = Duffing {
+                machine: m,
+                mode: k,
+                gamma,
+                pose,
+            };
+            let resp = cubic.response(&forces, fs, out, daq.response);
             acquire_at(
                 forces,
                 resp,
@@ -569,84 +587,89 @@ pub fn duffing_tests_at(
         .collect()
 }
 
-/// Motion of mode `k` of `m` at `pose` with a cubic (Duffing) modal stiffness under
-/// `forces` sampled at `fs`: `η'' + 2ζωη' + ω²(η + γη³) = φ·F / m` (RK4 at the
-/// sampling rate, the force linear between samples). Returns `(η, η'')` per sample.
-pub fn duffing_motion(
-    m: &ModalMachine,
-    k: usize,
-    gamma: f64,
-    forces: &[Option<Vec<f64>>; 3],
-    fs: f64,
-    pose: [f64; 3],
-) -> (Vec<f64>, Vec<f64>) {
-    let v = &m.modes[k];
-    let mode = m.mode_at(k, pose);
-    let (w, z) = (mode.wn, mode.zeta);
-    let n = forces.iter().flatten().map(Vec::len).next().unwrap_or(0);
-    // the modal force φ·F
-    let mut f = vec![0.0; n];
-    for (a, fa) in forces.iter().enumerate() {
-        if let Some(fa) = fa {
-            f.iter_mut().zip(fa).for_each(|(t, x)| *t += v.shape[a] * x);
-        }
-    }
-    let acc = |eta: f64, vel: f64, force: f64| {
-        force / v.mass - 2.0 * z * w * vel - w * w * (eta + gamma * eta.powi(3))
-    };
-    let h = 1.0 / fs;
-    let (mut eta, mut vel) = (0.0f64, 0.0f64);
-    let mut eta_s = vec![0.0; n];
-    let mut eta_dd = vec![0.0; n];
-    for i in 0..n {
-        let f0 = f[i];
-        let f1 = if i + 1 < n { f[i + 1] } else { f0 };
-        let fm = 0.5 * (f0 + f1);
-        eta_s[i] = eta;
-        eta_dd[i] = acc(eta, vel, f0);
-        let (k1x, k1v) = (vel, acc(eta, vel, f0));
-        let (k2x, k2v) = (
-            vel + 0.5 * h * k1v,
-            acc(eta + 0.5 * h * k1x, vel + 0.5 * h * k1v, fm),
-        );
-        let (k3x, k3v) = (
-            vel + 0.5 * h * k2v,
-            acc(eta + 0.5 * h * k2x, vel + 0.5 * h * k2v, fm),
-        );
-        let (k4x, k4v) = (vel + h * k3v, acc(eta + h * k3x, vel + h * k3v, f1));
-        eta += h / 6.0 * (k1x + 2.0 * k2x + 2.0 * k3x + k4x);
-        vel += h / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v);
-    }
-    (eta_s, eta_dd)
+/// Mode `mode` of `machine`, standing at `pose`, with the cubic (Duffing) modal stiffness
+/// `gamma`: `η'' + 2ζωη' + ω²(η + γη³) = φ·F / m`.
+#[derive(Debug, Clone, Copy)]
+pub struct Duffing<'a> {
+    /// The machine.
+    pub machine: &'a ModalMachine,
+    /// Index of the cubic mode.
+    pub mode: usize,
+    /// Cubic stiffness γ of the modal coordinate (the term ω²γη³).
+    pub gamma: f64,
+    /// Where the machine stands.
+    pub pose: [f64; 3],
 }
 
-/// Response of `m` at a fixed `pose` to any `forces` (sampled at `fs`) when mode `k` has
-/// the cubic modal stiffness `gamma` ([`duffing_motion`]); the other modes are simulated
-/// exactly. Responses (`kind`) along `out`, at `fs`.
-#[allow(clippy::too_many_arguments)]
-pub fn duffing_response(
-    m: &ModalMachine,
-    k: usize,
-    gamma: f64,
-    forces: &[Option<Vec<f64>>; 3],
-    fs: f64,
-    pose: [f64; 3],
-    out: &[Axis],
-    kind: ResponseKind,
-) -> [Option<Vec<f64>>; 3] {
-    let mut lin = m.clone();
-    lin.modes.remove(k);
-    let mut resp = simulate_machine(&lin, forces, fs, &move |_t| pose, out, kind);
-    let (eta, eta_dd) = duffing_motion(m, k, gamma, forces, fs, pose);
-    let q = match kind {
-        ResponseKind::Acceleration => eta_dd,
-        ResponseKind::Displacement => eta,
-    };
-    for o in out {
-        if let Some(r) = resp[o.index()].as_mut() {
-            let phi_o = m.modes[k].shape[o.index()];
-            r.iter_mut().zip(&q).for_each(|(ri, a)| *ri += phi_o * a);
+impl Duffing<'_> {
+    /// Motion of the mode under `forces` sampled at `fs` (RK4 at the sampling rate, the
+    /// force linear between samples). Returns `(η, η'')` per sample.
+    pub fn motion(&self, forces: &[Option<Vec<f64>>; 3], fs: f64) -> (Vec<f64>, Vec<f64>) {
+        let v = &self.machine.modes[self.mode];
+        let mode = self.machine.mode_at(self.mode, self.pose);
+        let (w, z, gamma) = (mode.wn, mode.zeta, self.gamma);
+        let n = forces.iter().flatten().map(Vec::len).next().unwrap_or(0);
+        // the modal force φ·F
+        let mut f = vec![0.0; n];
+        for (a, fa) in forces.iter().enumerate() {
+            if let Some(fa) = fa {
+                f.iter_mut().zip(fa).for_each(|(t, x)| *t += v.shape[a] * x);
+            }
         }
+        let acc = |eta: f64, vel: f64, force: f64| {
+            force / v.mass - 2.0 * z * w * vel - w * w * (eta + gamma * eta.powi(3))
+        };
+        let h = 1.0 / fs;
+        let (mut eta, mut vel) = (0.0f64, 0.0f64);
+        let mut eta_s = vec![0.0; n];
+        let mut eta_dd = vec![0.0; n];
+        for i in 0..n {
+            let f0 = f[i];
+            let f1 = if i + 1 < n { f[i + 1] } else { f0 };
+            let fm = 0.5 * (f0 + f1);
+            eta_s[i] = eta;
+            eta_dd[i] = acc(eta, vel, f0);
+            let (k1x, k1v) = (vel, acc(eta, vel, f0));
+            let (k2x, k2v) = (
+                vel + 0.5 * h * k1v,
+                acc(eta + 0.5 * h * k1x, vel + 0.5 * h * k1v, fm),
+            );
+            let (k3x, k3v) = (
+                vel + 0.5 * h * k2v,
+                acc(eta + 0.5 * h * k2x, vel + 0.5 * h * k2v, fm),
+            );
+            let (k4x, k4v) = (vel + h * k3v, acc(eta + h * k3x, vel + h * k3v, f1));
+            eta += h / 6.0 * (k1x + 2.0 * k2x + 2.0 * k3x + k4x);
+            vel += h / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v);
+        }
+        (eta_s, eta_dd)
     }
-    resp
+
+    /// Response of the machine to any `forces` (sampled at `fs`): the cubic mode by
+    /// [`Duffing::motion`], the other modes exactly. Responses (`kind`) along `out`, at
+    /// `fs`.
+    pub fn response(
+        &self,
+        forces: &[Option<Vec<f64>>; 3],
+        fs: f64,
+        out: &[Axis],
+        kind: ResponseKind,
+    ) -> [Option<Vec<f64>>; 3] {
+        let pose = self.pose;
+        let mut lin = self.machine.clone();
+        lin.modes.remove(self.mode);
+        let mut resp = simulate_machine(&lin, forces, fs, &move |_t| pose, out, kind);
+        let (eta, eta_dd) = self.motion(forces, fs);
+        let q = match kind {
+            ResponseKind::Acceleration => eta_dd,
+            ResponseKind::Displacement => eta,
+        };
+        for o in out {
+            if let Some(r) = resp[o.index()].as_mut() {
+                let phi_o = self.machine.modes[self.mode].shape[o.index()];
+                r.iter_mut().zip(&q).for_each(|(ri, a)| *ri += phi_o * a);
+            }
+        }
+        resp
+    }
 }
