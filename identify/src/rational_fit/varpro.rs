@@ -28,18 +28,28 @@ pub(crate) struct Solved {
     pub iterations: usize,
 }
 
+/// The lines of one channel's design rows and `1/den` of every mode on them
+/// (`inv_den[i * modes + j]`; the Jacobian reuses them).
+struct Rows {
+    lines: Vec<usize>,
+    inv_den: Vec<Complex64>,
+}
+
 /// The real-form design matrix (with its transpose) and weighted data of one channel
 /// (rows of lines with positive weight: real parts then imaginary parts interleaved).
-fn design(p: &Prepared, ci: usize, modes: &[Mode]) -> (Tall, DVector<f64>, Vec<usize>) {
+fn design(p: &Prepared, ci: usize, modes: &[Mode]) -> (Tall, DVector<f64>, Rows) {
     let lines: Vec<usize> = (0..p.n_lines()).filter(|&k| p.w[ci][k] > 0.0).collect();
     let m = 2 * modes.len() + 1;
     let mut a = Tall::zeros(lines.len(), m);
     let mut y = DVector::<f64>::zeros(2 * lines.len());
+    let mut inv_den = Vec::with_capacity(lines.len() * modes.len());
     for (i, &k) in lines.iter().enumerate() {
         let w = p.w[ci][k];
         let s = p.s[k];
         for (j, md) in modes.iter().enumerate() {
-            let inv = w / md.den(s);
+            let inv = 1.0 / md.den(s);
+            inv_den.push(inv);
+            let inv = inv * w;
             a.set(i, 2 * j, s * inv);
             a.set(i, 2 * j + 1, inv);
         }
@@ -48,20 +58,21 @@ fn design(p: &Prepared, ci: usize, modes: &[Mode]) -> (Tall, DVector<f64>, Vec<u
         y[2 * i] = hw.re;
         y[2 * i + 1] = hw.im;
     }
-    (a, y, lines)
+    (a, y, Rows { lines, inv_den })
 }
 
 /// `V = (∂A/∂θ) x` of one channel (with its transpose): two columns per mode (`ln ω`,
 /// `ln ζ`), rows as in [`design`].
-fn derivatives(p: &Prepared, ci: usize, modes: &[Mode], lines: &[usize], x: &[f64]) -> Tall {
-    let mut v = Tall::zeros(lines.len(), 2 * modes.len());
-    for (i, &k) in lines.iter().enumerate() {
+fn derivatives(p: &Prepared, ci: usize, modes: &[Mode], rows: &Rows, x: &[f64]) -> Tall {
+    let n = modes.len();
+    let mut v = Tall::zeros(rows.lines.len(), 2 * n);
+    for (i, &k) in rows.lines.iter().enumerate() {
         let w = p.w[ci][k];
         let s = p.s[k];
         for (j, md) in modes.iter().enumerate() {
-            let den = md.den(s);
+            let inv = rows.inv_den[i * n + j];
             let num = s * x[2 * j] + x[2 * j + 1];
-            let g = -(num * w) / (den * den);
+            let g = -(num * w) * (inv * inv);
             // ∂den/∂ln ω = ω (2ζ s + 2ω), ∂den/∂ln ζ = 2ζω s
             v.set(i, 2 * j, g * ((s * (2.0 * md.zeta) + 2.0 * md.wn) * md.wn));
             v.set(i, 2 * j + 1, g * (s * (2.0 * md.zeta * md.wn)));
@@ -118,7 +129,7 @@ fn channel_gram(
     modes: &[Mode],
     a: &Tall,
     y: &DVector<f64>,
-    lines: &[usize],
+    rows: &Rows,
 ) -> Option<ChannelSystem> {
     let g = ScaledGram::new(a)?;
     let (x, r) = g.solve(a, y);
@@ -126,7 +137,7 @@ fn channel_gram(
     if x.iter().any(|v| !v.is_finite()) {
         return None;
     }
-    let v = derivatives(p, ci, modes, lines, &x);
+    let v = derivatives(p, ci, modes, rows, &x);
     let vtv = &v.at * &v.a;
     let mut b = &a.at * &v.a;
     for (i, d) in g.d.iter().enumerate() {
@@ -152,7 +163,7 @@ fn channel_qr(
     modes: &[Mode],
     a: DMatrix<f64>,
     y: &DVector<f64>,
-    lines: &[usize],
+    rows: &Rows,
 ) -> Option<ChannelSystem> {
     let m = a.ncols();
     let np = 2 * modes.len();
@@ -179,7 +190,7 @@ fn channel_qr(
     // to the range of A: P V and P y = r (no explicit Q).
     let n_rows = y.len();
     let mut vy = DMatrix::<f64>::zeros(n_rows, np + 1);
-    let v = derivatives(p, ci, modes, lines, &x);
+    let v = derivatives(p, ci, modes, rows, &x);
     vy.columns_mut(0, np).copy_from(&v.a);
     v.release();
     vy.column_mut(np).copy_from(y);
@@ -200,19 +211,19 @@ fn evaluate(p: &Prepared, modes: &[Mode]) -> Option<(Solved, DMatrix<f64>, DVect
     let mut coefs = Vec::with_capacity(p.channels.len());
     let mut cost = 0.0;
     for ci in 0..p.channels.len() {
-        let (a, y, lines) = design(p, ci, modes);
+        let (a, y, rows) = design(p, ci, modes);
         let m = a.a.ncols();
         if a.a.nrows() < m {
             a.release();
             coefs.push(vec![0.0; m]);
             continue;
         }
-        let (x, c, j2, r2) = match channel_gram(p, ci, modes, &a, &y, &lines) {
+        let (x, c, j2, r2) = match channel_gram(p, ci, modes, &a, &y, &rows) {
             Some(sys) => {
                 a.release();
                 sys
             }
-            None => channel_qr(p, ci, modes, a.into_a(), &y, &lines)?,
+            None => channel_qr(p, ci, modes, a.into_a(), &y, &rows)?,
         };
         cost += c;
         jtj += j2;

@@ -185,6 +185,30 @@ fn pole_sums(cols: &[Vec<f64>; 5], q: Complex64) -> [f64; 8] {
     acc.map(|a| a.iter().sum())
 }
 
+/// `Σ_k 1/(s_k − q)` over the lines `s_k = j ys[k]`, in four partial sums (see
+/// [`pole_sums`]).
+fn resolvent_sum(ys: &[f64], q: Complex64) -> Complex64 {
+    const L: usize = 4;
+    let (mut re, mut im) = ([0.0f64; L], [0.0f64; L]);
+    let qr2 = q.re * q.re;
+    let add = |y: f64, l: usize, re: &mut [f64; L], im: &mut [f64; L]| {
+        let x = y - q.im;
+        let d = 1.0 / (qr2 + x * x);
+        re[l] -= q.re * d;
+        im[l] -= x * d;
+    };
+    let chunks = ys.chunks_exact(L);
+    for (l, &y) in chunks.remainder().iter().enumerate() {
+        add(y, l, &mut re, &mut im);
+    }
+    for c in chunks {
+        for (l, &y) in c.iter().enumerate() {
+            add(y, l, &mut re, &mut im);
+        }
+    }
+    Complex64::new(re.iter().sum(), im.iter().sum())
+}
+
 /// Runs up to `iters` pole relocations on `poles` (scaled units, one entry per pair with
 /// Im > 0 or per real pole). Stops early when the poles settle. Returns the number of
 /// iterations done.
@@ -285,11 +309,20 @@ fn step(p: &Prepared, poles: &[Complex64]) -> Option<Vec<Complex64>> {
     }
     // relaxation row: Re Σ_k σ(s_k) = N, scaled like the data
     let scale = relax_scale.sqrt() / nl as f64;
+    let ys: Vec<f64> = p.s.iter().map(|s| s.im).collect();
     let mut sum = vec![0.0; m];
-    for &sk in &p.s {
-        basis_row(sk, poles, &mut phi);
-        for (j, f) in phi.iter().enumerate() {
-            sum[j] += f.re;
+    let mut col = 0;
+    for &pl in poles {
+        let a = resolvent_sum(&ys, pl);
+        if pl.im > 0.0 {
+            // Re Σ (ψ_p + ψ_p̄), Re Σ j (ψ_p − ψ_p̄)
+            let b = resolvent_sum(&ys, pl.conj());
+            sum[col] = (a + b).re;
+            sum[col + 1] = -(a - b).im;
+            col += 2;
+        } else {
+            sum[col] = a.re;
+            col += 1;
         }
     }
     sum[nb] = nl as f64;
