@@ -437,7 +437,7 @@ def main():
         "threads (poses' FRFs and fits in parallel; the mode tracking across poses runs in "
         "sequence). Every other row, mtwin's included, is one thread.",
         "* The machine is shared (other checkouts may build at the same time): times vary by "
-        "up to about 30 % between runs of the script (b, mtwin: 11.7-12.9 ms over runs of this "
+        "up to about 30 % between runs of the script (b, mtwin: 11.3-12.1 ms over runs of this "
         "commit); the fits do not change.",
     ]
     text = "\n".join(head) + "\n" + tab.markdown() + "\n" + "\n".join(notes) + "\n"
