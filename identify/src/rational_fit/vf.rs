@@ -488,6 +488,62 @@ mod tests {
         }
     }
 
+    /// The design's Gram matrix, explicitly (the reference).
+    fn explicit_gram(
+        s: &[Complex64],
+        w: &[f64],
+        h: &[Complex64],
+        poles: &[Complex64],
+    ) -> DMatrix<f64> {
+        let m = n_basis(poles) + 1;
+        let mut d = Tall::zeros(s.len(), 2 * m);
+        let mut phi = Vec::new();
+        for k in 0..s.len() {
+            basis_row(s[k], poles, &mut phi);
+            phi.push(Complex64::new(1.0, 0.0));
+            for (c, f) in phi.iter().enumerate() {
+                d.set(k, c, f * w[k]);
+                d.set(k, m + c, -(f * h[k]) * w[k]);
+            }
+        }
+        &d.at * &d.a
+    }
+
+    proptest::proptest! {
+        /// Any stable poles (damping down to 1e-4, real poles too), weights with zeros and
+        /// data: the partial-fraction Gram matrix equals the design's.
+        #[test]
+        fn structured_gram_equals_the_design_for_random_poles(
+            pairs in proptest::collection::vec((0.05f64..1.2, -4.0f64..-0.5), 1..5),
+            real in proptest::option::of(0.05f64..2.0),
+            seed in 0u64..1000,
+        ) {
+            let nl = 300;
+            let s: Vec<Complex64> = (0..nl)
+                .map(|k| Complex64::new(0.0, 0.02 + 1.3 * k as f64 / nl as f64))
+                .collect();
+            let mut poles: Vec<Complex64> = pairs
+                .iter()
+                .map(|&(wn, lz)| Complex64::new(-(10f64.powf(lz)) * wn, wn))
+                .collect();
+            if let Some(r) = real {
+                poles.push(Complex64::new(-r, 0.0));
+            }
+            let x = |k: usize, a: f64| ((k as f64 + seed as f64) * a).sin();
+            let w: Vec<f64> = (0..nl).map(|k| if x(k, 0.7) > 0.8 { 0.0 } else { 1.0 + 0.5 * x(k, 0.3) }).collect();
+            let h: Vec<Complex64> = (0..nl).map(|k| Complex64::new(x(k, 1.1), x(k, 2.3)) * 3.0).collect();
+            let g = structured_gram(&s, &w, &h, &poles).expect("stable poles");
+            let e = explicit_gram(&s, &w, &h, &poles);
+            for r in 0..e.nrows() {
+                for c in 0..e.ncols() {
+                    let scale = (e[(r, r)] * e[(c, c)]).sqrt();
+                    proptest::prop_assert!((g[(r, c)] - e[(r, c)]).abs() <= 1e-9 * scale,
+                        "entry ({}, {}): {} vs {}", r, c, g[(r, c)], e[(r, c)]);
+                }
+            }
+        }
+    }
+
     #[test]
     fn structured_gram_refuses_a_pole_on_the_axis() {
         let s = vec![Complex64::new(0.0, 0.5); 4];
