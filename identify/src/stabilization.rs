@@ -200,9 +200,9 @@ pub fn diagram(
     // equations): r(m) = Σ w² cos mθ, t(m) = Σ w² |h|² cos mθ, and for the cross terms
     // Re Σ w² h Ω^(±m) = a(m) ∓ b(m) with a(m) = Σ w² Re h cos mθ, b(m) = Σ w² Im h sin mθ
     // (m = 0..n, θ the line's angle): one product of the cosine and sine tables
-    // (n+1 × lines) with the channels' weighted data.
-    // column m = cos mθ (sin mθ) of every line; the powers run along the lines, so the
-    // recurrence Ωᵐ⁺¹ = Ωᵐ Ω is one independent product per line
+    // (lines × n+1, column m = cos mθ resp. sin mθ of every line) with the channels'
+    // weighted data. The tables are filled column by column, so the recurrence
+    // Ωᵐ⁺¹ = Ωᵐ Ω is one independent product per line.
     let mut cos = linalg::pooled_zeros(nf, n + 1);
     let mut sin = linalg::pooled_zeros(nf, n + 1);
     let mut z = vec![Complex64::new(1.0, 0.0); nf];
