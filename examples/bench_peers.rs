@@ -161,8 +161,7 @@ fn fft_floor(rec: &TimeSeries, nfft: usize, overlap: f64) -> (usize, f64) {
         .filter_map(|a| rec.force(a))
         .chain(Axis::ALL.into_iter().filter_map(|a| rec.response(a)))
         .collect();
-    let hop = nfft - (nfft as f64 * overlap).round() as usize;
-    let segs = (rec.len() - nfft) / hop + 1;
+    let (hop, segs) = identify::spectra::welch_segments(rec.len(), nfft, overlap);
     let window = identify::spectra::hann(nfft);
     let plan = realfft::RealFftPlanner::<f64>::new().plan_fft_forward(nfft);
     let (mut buf, mut out, mut scratch) = (

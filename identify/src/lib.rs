@@ -41,6 +41,7 @@ pub mod error;
 pub mod extended;
 pub mod frf;
 pub mod interpolate;
+mod lanes;
 pub mod lobes;
 pub mod modal_update;
 pub mod model;

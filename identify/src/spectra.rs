@@ -374,18 +374,9 @@ impl RecordInfo {
     }
 }
 
-/// `Σ g(v_i)` in four interleaved partial sums (the processor adds them in parallel; a
-/// single running sum waits for each addition).
+/// `Σ g(v_i)` in interleaved partial sums ([`crate::lanes`]).
 fn sum4(v: &[f64], g: impl Fn(f64) -> f64) -> f64 {
-    let mut p = [0.0; 4];
-    let chunks = v.chunks_exact(4);
-    let rest: f64 = chunks.remainder().iter().map(|&x| g(x)).sum();
-    for c in chunks {
-        for (p, &x) in p.iter_mut().zip(c) {
-            *p += g(x);
-        }
-    }
-    (p[0] + p[1]) + (p[2] + p[3]) + rest
+    crate::lanes::sum(v.len(), |k| [g(v[k])])[0]
 }
 
 /// The systematic subsample a streamed read keeps of a column
@@ -576,20 +567,21 @@ impl Accumulator {
         }
         for (i, fi) in fs.iter().map(|v| lines(v, nl)).enumerate() {
             for (j, fj) in fs.iter().map(|v| lines(v, nl)).enumerate() {
-                let g = &mut self.gff[(i * ni + j) * nl..(i * ni + j + 1) * nl];
-                for ((g, a), b) in g.iter_mut().zip(fi).zip(fj) {
+                let r = self.at(i * ni + j, 0);
+                for ((g, a), b) in self.gff[r..r + nl].iter_mut().zip(fi).zip(fj) {
                     *g += a.conj() * b;
                 }
             }
             for (o, yo) in ys.iter().map(|v| lines(v, nl)).enumerate() {
-                let g = &mut self.gfy[(i * no + o) * nl..(i * no + o + 1) * nl];
-                for ((g, a), b) in g.iter_mut().zip(fi).zip(yo) {
+                let r = self.at(i * no + o, 0);
+                for ((g, a), b) in self.gfy[r..r + nl].iter_mut().zip(fi).zip(yo) {
                     *g += a.conj() * b;
                 }
             }
         }
         for (o, yo) in ys.iter().map(|v| lines(v, nl)).enumerate() {
-            let g = &mut self.gyy[o * nl..(o + 1) * nl];
+            let r = self.at(o, 0);
+            let g = &mut self.gyy[r..r + nl];
             for (g, y) in g.iter_mut().zip(yo) {
                 *g += y.norm_sqr();
             }

@@ -68,14 +68,7 @@ fn structured_gram(
     h: &[Complex64],
     poles: &[Complex64],
 ) -> Option<DMatrix<f64>> {
-    let j = Complex64::new(0.0, 1.0);
-    let mut q = Vec::new();
-    for &p in poles {
-        q.push(p);
-        if p.im > 0.0 {
-            q.push(p.conj());
-        }
-    }
+    let (q, t) = partial_fractions(poles);
     let kq = q.len();
     let m = kq + 1;
     // the fitted lines, column by column (y = Im s; v = w², w² h, w² |h|²)
@@ -107,21 +100,6 @@ fn structured_gram(
         sm[a] = [-s1.conj(), -t2, -s3.conj()];
     }
     // Ψ̃ᴴ diag(v) Ψ̃, then Φ̃ᴴ diag(v) Φ̃ = Tᴴ (…) T
-    let mut t = DMatrix::<Complex64>::zeros(m, m);
-    let mut col = 0;
-    for &p in poles {
-        if p.im > 0.0 {
-            t[(col, col)] = Complex64::new(1.0, 0.0);
-            t[(col + 1, col)] = Complex64::new(1.0, 0.0);
-            t[(col, col + 1)] = j;
-            t[(col + 1, col + 1)] = -j;
-            col += 2;
-        } else {
-            t[(col, col)] = Complex64::new(1.0, 0.0);
-            col += 1;
-        }
-    }
-    t[(kq, kq)] = Complex64::new(1.0, 0.0);
     let mut blocks = Vec::with_capacity(3);
     for i in 0..3 {
         let mut c = DMatrix::<Complex64>::zeros(m, m);
@@ -149,64 +127,71 @@ fn structured_gram(
     g.iter().all(|v| v.is_finite()).then_some(g)
 }
 
-/// For one pole `q` and the fitted lines `cols` = (Im s, w², Re w²h, Im w²h, w²|h|²):
-/// the sums over the lines of `w² r`, `w²h r`, `w²|h|² r` and `w²h r̄` with
-/// `r = 1/(s − q)`, as four (re, im) pairs. Four independent partial sums per value so
-/// that the processor runs lines side by side.
-fn pole_sums(cols: &[Vec<f64>; 5], q: Complex64) -> [f64; 8] {
-    const L: usize = 4;
-    let mut acc = [[0.0f64; L]; 8];
-    let (qr, qi) = (q.re, q.im);
-    let qr2 = qr * qr;
-    let n = cols[0].len();
-    let full = n - n % L;
-    let add = |l: usize, k: usize, acc: &mut [[f64; L]; 8]| {
-        let x = cols[0][k] - qi;
-        let d = 1.0 / (qr2 + x * x);
-        let (rr, ri) = (-qr * d, -x * d);
-        let (w2, vr, vi, w2h2) = (cols[1][k], cols[2][k], cols[3][k], cols[4][k]);
-        acc[0][l] += w2 * rr;
-        acc[1][l] += w2 * ri;
-        acc[2][l] += vr * rr - vi * ri;
-        acc[3][l] += vr * ri + vi * rr;
-        acc[4][l] += w2h2 * rr;
-        acc[5][l] += w2h2 * ri;
-        acc[6][l] += vr * rr + vi * ri;
-        acc[7][l] += vi * rr - vr * ri;
-    };
-    for k0 in (0..full).step_by(L) {
-        for l in 0..L {
-            add(l, k0 + l, &mut acc);
+/// The partial fractions `ψ_a = 1/(s − q_a)` under the real basis of `poles` (a pair
+/// gives `q = p, p̄`, a real pole itself) and the matrix `T` with `Φ̃ = Ψ̃ T`, where
+/// `Ψ̃`, `Φ̃` end with the constant column ([`basis_row`] in matrix form).
+fn partial_fractions(poles: &[Complex64]) -> (Vec<Complex64>, DMatrix<Complex64>) {
+    let (one, j) = (Complex64::new(1.0, 0.0), Complex64::new(0.0, 1.0));
+    let mut q = Vec::with_capacity(2 * poles.len());
+    for &p in poles {
+        q.push(p);
+        if p.im > 0.0 {
+            q.push(p.conj());
         }
     }
-    for k in full..n {
-        add(0, k, &mut acc);
+    let kq = q.len();
+    let mut t = DMatrix::<Complex64>::zeros(kq + 1, kq + 1);
+    let mut col = 0;
+    for &p in poles {
+        if p.im > 0.0 {
+            // 1/(s−p) + 1/(s−p̄) and j/(s−p) − j/(s−p̄)
+            t[(col, col)] = one;
+            t[(col + 1, col)] = one;
+            t[(col, col + 1)] = j;
+            t[(col + 1, col + 1)] = -j;
+            col += 2;
+        } else {
+            t[(col, col)] = one;
+            col += 1;
+        }
     }
-    acc.map(|a| a.iter().sum())
+    t[(kq, kq)] = one;
+    (q, t)
 }
 
-/// `Σ_k 1/(s_k − q)` over the lines `s_k = j ys[k]`, in four partial sums (see
-/// [`pole_sums`]).
-fn resolvent_sum(ys: &[f64], q: Complex64) -> Complex64 {
-    const L: usize = 4;
-    let (mut re, mut im) = ([0.0f64; L], [0.0f64; L]);
+/// For one pole `q` and the fitted lines `cols` = (Im s, w², Re w²h, Im w²h, w²|h|²):
+/// the sums over the lines of `w² r`, `w²h r`, `w²|h|² r` and `w²h r̄` with
+/// `r = 1/(s − q)`, as four (re, im) pairs ([`crate::lanes`]; with `s = jy` one real
+/// division per line).
+fn pole_sums(cols: &[Vec<f64>; 5], q: Complex64) -> [f64; 8] {
     let qr2 = q.re * q.re;
-    let add = |y: f64, l: usize, re: &mut [f64; L], im: &mut [f64; L]| {
-        let x = y - q.im;
+    crate::lanes::sum(cols[0].len(), |k| {
+        let x = cols[0][k] - q.im;
         let d = 1.0 / (qr2 + x * x);
-        re[l] -= q.re * d;
-        im[l] -= x * d;
-    };
-    let chunks = ys.chunks_exact(L);
-    for (l, &y) in chunks.remainder().iter().enumerate() {
-        add(y, l, &mut re, &mut im);
-    }
-    for c in chunks {
-        for (l, &y) in c.iter().enumerate() {
-            add(y, l, &mut re, &mut im);
-        }
-    }
-    Complex64::new(re.iter().sum(), im.iter().sum())
+        let (rr, ri) = (-q.re * d, -x * d);
+        let (w2, vr, vi, w2h2) = (cols[1][k], cols[2][k], cols[3][k], cols[4][k]);
+        [
+            w2 * rr,
+            w2 * ri,
+            vr * rr - vi * ri,
+            vr * ri + vi * rr,
+            w2h2 * rr,
+            w2h2 * ri,
+            vr * rr + vi * ri,
+            vi * rr - vr * ri,
+        ]
+    })
+}
+
+/// `Σ_k 1/(s_k − q)` over the lines `s` (on the imaginary axis; [`crate::lanes`]).
+fn resolvent_sum(s: &[Complex64], q: Complex64) -> Complex64 {
+    let qr2 = q.re * q.re;
+    let [re, im] = crate::lanes::sum(s.len(), |k| {
+        let x = s[k].im - q.im;
+        let d = 1.0 / (qr2 + x * x);
+        [-q.re * d, -x * d]
+    });
+    Complex64::new(re, im)
 }
 
 /// Runs up to `iters` pole relocations on `poles` (scaled units, one entry per pair with
@@ -309,23 +294,20 @@ fn step(p: &Prepared, poles: &[Complex64]) -> Option<Vec<Complex64>> {
     }
     // relaxation row: Re Σ_k σ(s_k) = N, scaled like the data
     let scale = relax_scale.sqrt() / nl as f64;
-    let ys: Vec<f64> = p.s.iter().map(|s| s.im).collect();
-    let mut sum = vec![0.0; m];
-    let mut col = 0;
-    for &pl in poles {
-        let a = resolvent_sum(&ys, pl);
-        if pl.im > 0.0 {
-            // Re Σ (ψ_p + ψ_p̄), Re Σ j (ψ_p − ψ_p̄)
-            let b = resolvent_sum(&ys, pl.conj());
-            sum[col] = (a + b).re;
-            sum[col + 1] = -(a - b).im;
-            col += 2;
-        } else {
-            sum[col] = a.re;
-            col += 1;
-        }
-    }
-    sum[nb] = nl as f64;
+    // Σ_k φ̃_j(s_k) = (Σ_k ψ̃(s_k)) T, the constant column giving N
+    let (q, t) = partial_fractions(poles);
+    let mut psi_sum: Vec<Complex64> = q.iter().map(|&qa| resolvent_sum(&p.s, qa)).collect();
+    psi_sum.push(Complex64::new(nl as f64, 0.0));
+    let sum: Vec<f64> = (0..m)
+        .map(|j| {
+            psi_sum
+                .iter()
+                .zip(t.column(j).iter())
+                .map(|(u, t)| u * t)
+                .sum::<Complex64>()
+                .re
+        })
+        .collect();
     for j in 0..m {
         big[(row, j)] = sum[j] * scale;
     }
