@@ -421,6 +421,19 @@ fn track_modes(fits: &mut [PoseFit], opts: &CampaignOptions) -> Result<Vec<Strin
         }
         let (_, i, j) = pick;
         let mut start = fits[j].model.clone();
+        // Where the pose's own fit has a mode matching one of the neighbour's (by
+        // frequency and shape, and within 20 % in frequency), start that mode there: the
+        // refinement then begins near this pose's optimum instead of where the neighbour's
+        // mode sat (modes move by up to ~10 % between neighbouring poses), and a mode the
+        // pose's own fit lacks is still carried from the neighbour.
+        if fits[i].model.modes.len() == m {
+            let own = match_modes(&fits[j].model, &fits[i].model);
+            for (s, o) in start.modes.iter_mut().zip(&own.modes) {
+                if (o.wn / s.wn).ln().abs() < 0.2 {
+                    *s = *o;
+                }
+            }
+        }
         // the neighbour's model is unwindowed; fit in the windowed domain of pose i
         if let Some(s) = fits[i].sigma {
             start.shift_poles(-s);

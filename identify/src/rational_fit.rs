@@ -47,6 +47,7 @@
 
 mod data;
 pub(crate) mod linalg;
+mod pf_gram;
 mod varpro;
 mod vf;
 

@@ -142,17 +142,19 @@ impl ScaledGram {
     /// `x` and the residual `y − a x`.
     pub(crate) fn solve(&self, t: &Tall, y: &DVector<f64>) -> (DVector<f64>, DVector<f64>) {
         let (a, at) = (&t.a, &t.at);
-        let n = self.d.len();
-        let solve_scaled = |rhs: DVector<f64>| -> DVector<f64> {
-            let rs = DVector::from_iterator(n, rhs.iter().zip(&self.d).map(|(v, d)| v / d));
-            let xs = self.chol.solve(&rs);
-            DVector::from_iterator(n, xs.iter().zip(&self.d).map(|(v, d)| v / d))
-        };
-        let mut x = solve_scaled(at * y);
+        let mut x = self.solve_normal(&(at * y));
         let mut r = y - a * &x;
-        x += solve_scaled(at * &r);
+        x += self.solve_normal(&(at * &r));
         r = y - a * &x;
         (x, r)
+    }
+
+    /// `(aᵀa)⁻¹ rhs` through the scaled factorisation.
+    pub(crate) fn solve_normal(&self, rhs: &DVector<f64>) -> DVector<f64> {
+        let n = self.d.len();
+        let rs = DVector::from_iterator(n, rhs.iter().zip(&self.d).map(|(v, d)| v / d));
+        let xs = self.chol.solve(&rs);
+        DVector::from_iterator(n, xs.iter().zip(&self.d).map(|(v, d)| v / d))
     }
 }
 
