@@ -350,6 +350,40 @@ struct Problem<'a> {
     prior_scale: f64,
 }
 
+/// Per (input, free mode): the `[q, q̇]` columns of one record (fitted samples).
+type Cols = Vec<(Axis, usize, [Vec<f64>; 2])>;
+
+/// One record's part of an evaluation: per output the target (measured minus held-mode
+/// response), and the free-mode columns.
+struct RecPart {
+    targets: Vec<Vec<f64>>,
+    cols: Cols,
+    /// Per output of the problem: this record's share of the numerators' normal equations.
+    normal: Vec<Option<Normal>>,
+}
+
+/// `(AᵀA, Aᵀy)` of one record and output.
+type Normal = (DMatrix<f64>, DVector<f64>);
+
+/// A record's part by reference (targets and normal equations may come from another
+/// evaluation than the columns when only the columns changed).
+#[derive(Clone, Copy)]
+struct PartRef<'a> {
+    targets: &'a [Vec<f64>],
+    cols: &'a Cols,
+    normal: &'a [Option<Normal>],
+}
+
+impl RecPart {
+    fn as_ref(&self) -> PartRef<'_> {
+        PartRef {
+            targets: &self.targets,
+            cols: &self.cols,
+            normal: &self.normal,
+        }
+    }
+}
+
 /// Linear solution and residual at one θ.
 struct Eval {
     /// Weighted residual over every record and output, then the prior residuals.
@@ -374,67 +408,153 @@ impl Problem<'_> {
             .collect()
     }
 
-    fn eval(&self, theta: &[f64]) -> Eval {
-        let modes = self.modes_at(theta);
-        // per record: the conditioned forces, the targets, the (input, free mode) -> [q, q̇]
-        // columns
-        type Cols = Vec<(Axis, usize, [Vec<f64>; 2])>;
-        // records are independent: in parallel (rayon; in order)
-        let per_rec: Vec<(Vec<Vec<f64>>, Cols)> = self
-            .recs
-            .par_iter()
-            .enumerate()
-            .map(|(ri, p)| {
-                let u = p.wiener(&self.noise_of(theta, ri));
-                let targets = (0..p.targets.len()).map(|oi| p.target(oi, &u)).collect();
-                let mut cols = Vec::new();
-                for ((a, _), uj) in p.forces.iter().zip(&u) {
-                    for (j, &(wn, z)) in modes.iter().enumerate() {
-                        cols.push((*a, j, p.mode_columns(wn, z, uj)));
-                    }
-                }
-                (targets, cols)
-            })
-            .collect();
-        let mut r = Vec::new();
-        let mut beta = Vec::new();
-        for (o, chans, w) in &self.outputs {
-            // column list: (channel, free mode, 0|1)
-            let mut spec: Vec<(usize, usize, usize)> = Vec::new();
-            for &c in chans {
-                for j in 0..self.free.len() {
-                    spec.push((c, j, 0));
-                    spec.push((c, j, 1));
-                }
+    /// Record `ri`'s part of an evaluation at `theta`.
+    fn rec_part(&self, theta: &[f64], ri: usize) -> RecPart {
+        let p = &self.recs[ri];
+        let u = p.wiener(&self.noise_of(theta, ri));
+        let targets: Vec<Vec<f64>> = (0..p.targets.len()).map(|oi| p.target(oi, &u)).collect();
+        let cols = self.rec_columns(theta, ri, &u);
+        RecPart {
+            normal: self.normal_parts(ri, &targets, &cols),
+            cols,
+            targets,
+        }
+    }
+
+    /// Column list of output `oi` of the problem: (channel, free mode, 0 = q | 1 = q̇).
+    fn spec(&self, oi: usize) -> Vec<(usize, usize, usize)> {
+        let mut spec = Vec::new();
+        for &c in &self.outputs[oi].1 {
+            for j in 0..self.free.len() {
+                spec.push((c, j, 0));
+                spec.push((c, j, 1));
             }
-            let np = spec.len();
-            let col = |ri: usize, (c, j, d): (usize, usize, usize)| -> Option<&[f64]> {
-                let input = self.start.channels[c].channel.input;
-                per_rec[ri]
-                    .1
-                    .iter()
-                    .find(|(a, jj, _)| *a == input && *jj == j)
-                    .map(|(_, _, qv)| qv[d].as_slice())
-            };
-            let target = |ri: usize| -> Option<&[f64]> {
-                let oi = self.recs[ri].targets.iter().position(|(a, _)| a == o)?;
-                Some(per_rec[ri].0[oi].as_slice())
-            };
-            let mut ata = DMatrix::<f64>::zeros(np, np);
-            let mut aty = DVector::<f64>::zeros(np);
-            for ri in 0..self.recs.len() {
-                let Some(y) = target(ri) else { continue };
-                let cs: Vec<Option<&[f64]>> = spec.iter().map(|s| col(ri, *s)).collect();
+        }
+        spec
+    }
+
+    /// Column `(c, j, d)` of record columns `cols`, if the record drives channel `c`.
+    fn column<'a>(&self, cols: &'a Cols, (c, j, d): (usize, usize, usize)) -> Option<&'a [f64]> {
+        let input = self.start.channels[c].channel.input;
+        cols.iter()
+            .find(|(a, jj, _)| *a == input && *jj == j)
+            .map(|(_, _, qv)| qv[d].as_slice())
+    }
+
+    /// Target of output `oi` of the problem in record `ri`, if measured there.
+    fn target_of<'a>(&self, ri: usize, targets: &'a [Vec<f64>], oi: usize) -> Option<&'a [f64]> {
+        let o = self.outputs[oi].0;
+        let k = self.recs[ri].targets.iter().position(|(a, _)| *a == o)?;
+        Some(targets[k].as_slice())
+    }
+
+    /// Record `ri`'s share of every output's normal equations.
+    fn normal_parts(&self, ri: usize, targets: &[Vec<f64>], cols: &Cols) -> Vec<Option<Normal>> {
+        (0..self.outputs.len())
+            .map(|oi| {
+                let y = self.target_of(ri, targets, oi)?;
+                let spec = self.spec(oi);
+                let np = spec.len();
+                let cs: Vec<Option<&[f64]>> =
+                    spec.iter().map(|sp| self.column(cols, *sp)).collect();
+                let mut ata = DMatrix::<f64>::zeros(np, np);
+                let mut aty = DVector::<f64>::zeros(np);
                 for a in 0..np {
                     let Some(ca) = cs[a] else { continue };
-                    aty[a] += dot(ca, y);
+                    aty[a] = dot(ca, y);
                     for b in a..np {
                         if let Some(cb) = cs[b] {
-                            let v = dot(ca, cb);
-                            ata[(a, b)] += v;
+                            ata[(a, b)] = dot(ca, cb);
                             ata[(b, a)] = ata[(a, b)];
                         }
                     }
+                }
+                Some((ata, aty))
+            })
+            .collect()
+    }
+
+    /// Record `ri`'s free-mode columns for the conditioned forces `u`.
+    fn rec_columns(&self, theta: &[f64], ri: usize, u: &[Vec<Complex64>]) -> Cols {
+        let p = &self.recs[ri];
+        let modes = self.modes_at(theta);
+        let mut cols = Vec::new();
+        for ((a, _), uj) in p.forces.iter().zip(u) {
+            for (j, &(wn, z)) in modes.iter().enumerate() {
+                cols.push((*a, j, p.mode_columns(wn, z, uj)));
+            }
+        }
+        cols
+    }
+
+    fn eval(&self, theta: &[f64]) -> Eval {
+        self.eval_with_parts(theta).0
+    }
+
+    /// [`Problem::eval`] and the records' parts it was made of.
+    fn eval_with_parts(&self, theta: &[f64]) -> (Eval, Vec<RecPart>) {
+        // records are independent: in parallel (rayon; in order)
+        let per_rec: Vec<RecPart> = (0..self.recs.len())
+            .into_par_iter()
+            .map(|ri| self.rec_part(theta, ri))
+            .collect();
+        let refs: Vec<PartRef> = per_rec.iter().map(RecPart::as_ref).collect();
+        let e = self.combine(theta, &refs);
+        (e, per_rec)
+    }
+
+    /// The evaluation at `t` = `theta` with parameter `i` moved, from the parts `base` of
+    /// the evaluation at `theta`: a mode parameter changes every record's columns but no
+    /// target, a noise floor only its own record. The same numbers as [`Problem::eval`].
+    fn eval_moved(&self, t: &[f64], i: usize, base: &[RecPart]) -> Eval {
+        if i < 2 * self.free.len() {
+            let moved: Vec<(Cols, Vec<Option<Normal>>)> = (0..self.recs.len())
+                .into_par_iter()
+                .map(|ri| {
+                    let p = &self.recs[ri];
+                    let cols = self.rec_columns(t, ri, &p.wiener(&self.noise_of(t, ri)));
+                    let normal = self.normal_parts(ri, &base[ri].targets, &cols);
+                    (cols, normal)
+                })
+                .collect();
+            let refs: Vec<PartRef> = base
+                .iter()
+                .zip(&moved)
+                .map(|(b, (cols, normal))| PartRef {
+                    targets: &b.targets,
+                    cols,
+                    normal,
+                })
+                .collect();
+            return self.combine(t, &refs);
+        }
+        let ri = (0..self.recs.len())
+            .rev()
+            .find(|&ri| self.noise_at[ri] <= i)
+            .unwrap_or(0);
+        let moved = self.rec_part(t, ri);
+        let refs: Vec<PartRef> = base
+            .iter()
+            .enumerate()
+            .map(|(k, b)| if k == ri { moved.as_ref() } else { b.as_ref() })
+            .collect();
+        self.combine(t, &refs)
+    }
+
+    /// Numerators by linear least squares per output over the records' parts
+    /// (targets, columns), the weighted residual and the prior residuals.
+    fn combine(&self, theta: &[f64], per_rec: &[PartRef]) -> Eval {
+        let mut r = Vec::new();
+        let mut beta = Vec::new();
+        for (oi, (_, _, w)) in self.outputs.iter().enumerate() {
+            let spec = self.spec(oi);
+            let np = spec.len();
+            let mut ata = DMatrix::<f64>::zeros(np, np);
+            let mut aty = DVector::<f64>::zeros(np);
+            for part in per_rec {
+                if let Some((a, y)) = &part.normal[oi] {
+                    ata += a;
+                    aty += y;
                 }
             }
             // column scaling, then a least-squares solve robust to unused columns
@@ -455,11 +575,13 @@ impl Problem<'_> {
                 .solve(&rhs, 1e-12)
                 .unwrap_or_else(|_| DVector::zeros(np));
             let bo = DVector::from_fn(np, |a, _| sol[a] * d[a]);
-            for ri in 0..self.recs.len() {
-                let Some(y) = target(ri) else { continue };
+            for (ri, part) in per_rec.iter().enumerate() {
+                let Some(y) = self.target_of(ri, part.targets, oi) else {
+                    continue;
+                };
                 let mut res = y.to_vec();
                 for (a, s) in spec.iter().enumerate() {
-                    if let Some(ca) = col(ri, *s) {
+                    if let Some(ca) = self.column(part.cols, *s) {
                         res.iter_mut().zip(ca).for_each(|(e, x)| *e -= bo[a] * x);
                     }
                 }
@@ -502,11 +624,13 @@ impl Problem<'_> {
 }
 
 fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
+    let n = a.len().min(b.len());
+    let (a, b) = (&a[..n], &b[..n]);
+    crate::lanes::sum(n, |k| [a[k] * b[k]])[0]
 }
 
 fn sumsq(r: &[f64]) -> f64 {
-    r.iter().map(|v| v * v).sum()
+    dot(r, r)
 }
 
 /// Options of [`refine`].
@@ -635,7 +759,7 @@ pub fn refine(
     let first = prob.eval(&theta);
     let rel_before = (sumsq(&first.r) / first.n_data.max(1) as f64).sqrt();
     prob.prior_scale = rel_before;
-    let mut cur = prob.eval(&theta);
+    let (mut cur, mut parts) = prob.eval_with_parts(&theta);
     let mut cost = sumsq(&cur.r);
     let mut lambda = 1e-3;
     let mut iterations = 0;
@@ -652,7 +776,8 @@ pub fn refine(
     for _ in 0..opts.max_iter {
         iterations += 1;
         // forward differences: ln ω by a thousandth of the half-power bandwidth
-        let mut jac = DMatrix::<f64>::zeros(cur.r.len(), np);
+        // the Jacobian's columns; JᵀJ and Jᵀr from their dot products
+        let mut jac: Vec<Vec<f64>> = Vec::with_capacity(np);
         for i in 0..np {
             let h = if i >= n_modes {
                 1e-4
@@ -663,18 +788,22 @@ pub fn refine(
             };
             let mut t = theta.clone();
             t[i] += h;
-            let e = prob.eval(&t);
+            let e = prob.eval_moved(&t, i, &parts);
             if e.r.len() != cur.r.len() {
                 return Err(Error::Numerical(
                     "output-error refit: residual length changed".into(),
                 ));
             }
-            for (row, (a, b)) in e.r.iter().zip(&cur.r).enumerate() {
-                jac[(row, i)] = (a - b) / h;
+            jac.push(e.r.iter().zip(&cur.r).map(|(a, b)| (a - b) / h).collect());
+        }
+        let mut jtj = DMatrix::<f64>::zeros(np, np);
+        for i in 0..np {
+            for k in i..np {
+                jtj[(i, k)] = dot(&jac[i], &jac[k]);
+                jtj[(k, i)] = jtj[(i, k)];
             }
         }
-        let jtj = jac.transpose() * &jac;
-        let g = jac.transpose() * DVector::from_column_slice(&cur.r);
+        let g = DVector::from_fn(np, |i, _| dot(&jac[i], &cur.r));
         let mut improved = false;
         for _ in 0..12 {
             let mut a = jtj.clone();
@@ -690,12 +819,13 @@ pub fn refine(
                 *ti += si;
             }
             clamp(&mut t);
-            let e = prob.eval(&t);
+            let (e, ep) = prob.eval_with_parts(&t);
             let c = sumsq(&e.r);
             if c.is_finite() && c < cost {
                 let rel_gain = (cost - c) / cost;
                 theta = t;
                 cur = e;
+                parts = ep;
                 cost = c;
                 lambda = (lambda / 3.0).max(1e-9);
                 improved = rel_gain > 1e-10;
