@@ -437,8 +437,9 @@ def main():
         "threads (poses' FRFs and fits in parallel; the mode tracking across poses runs in "
         "sequence). Every other row, mtwin's included, is one thread.",
         "* The machine is shared (other checkouts may build at the same time): times vary by "
-        "up to about 30 % between runs of the script (b, mtwin: 11.3-12.1 ms over runs of this "
-        "commit); the fits do not change.",
+        "up to about 30 % between runs of the script (two runs of this commit, one while the "
+        "machine was busy: a 5.8 / 7.3 ms, b 9.9 / 11.4 ms, d 938 / 961 ms for mtwin); the "
+        "fits do not change.",
     ]
     text = "\n".join(head) + "\n" + tab.markdown() + "\n" + "\n".join(notes) + "\n"
     print(text)

@@ -7,7 +7,9 @@
 //! only. The Jacobian of `r` with respect to one mode parameter is approximated by
 //! `−(I − QQᵀ) (∂A/∂θ) x`, which keeps the exact Gauss–Newton direction at the optimum
 //! and needs one QR per channel per iteration — or, when the channel's design matrix is
-//! well conditioned, one Gram matrix (see `linalg`), about five times cheaper.
+//! well conditioned, one Gram matrix (see `linalg`), about five times cheaper. The Gram
+//! matrices are first taken from partial-fraction sums without forming the design at all
+//! ([`super::pf_gram`]); the design (Gram, then QR) is the fallback.
 
 use super::data::Prepared;
 use super::linalg::{lstsq, ScaledGram, Tall};
