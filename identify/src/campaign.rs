@@ -316,13 +316,6 @@ pub fn identify_frfs(
     })
 }
 
-/// Makes every pose model carry the same modes in the same order.
-///
-/// The reference is the pose nearest the workspace centre among those with the most
-/// common mode count; its model is carried to the nearest not-yet-tracked pose and
-/// refined there (Levenberg–Marquardt from the neighbour's parameters: continuity of
-/// frequency, damping and residues), then on from there (Prim's order), so "mode 2"
-/// means the same physical mode everywhere.
 /// Residue vector of mode `k` over `channels` (b0 and ωn·b1 per channel), unit length.
 fn shape_vector(m: &ModalModel, k: usize, channels: &[crate::axis::Channel]) -> Vec<f64> {
     let mut v = Vec::with_capacity(2 * channels.len());
@@ -382,6 +375,14 @@ pub fn match_modes(reference: &ModalModel, m: &ModalModel) -> ModalModel {
     out
 }
 
+/// Makes every pose model carry the same modes in the same order.
+///
+/// The reference is the pose nearest the workspace centre among those with the most
+/// common mode count; its model is carried to the nearest not-yet-tracked pose and
+/// refined there (Levenberg–Marquardt from the neighbour's modes, each replaced by the
+/// matching mode of the pose's own fit when that lies within 20 % in frequency:
+/// continuity of frequency, damping and residues), then on from there (Prim's order),
+/// so "mode 2" means the same physical mode everywhere.
 fn track_modes(fits: &mut [PoseFit], opts: &CampaignOptions) -> Result<Vec<String>> {
     let mut warnings = Vec::new();
     let n = fits.len();
