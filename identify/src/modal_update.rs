@@ -245,10 +245,8 @@ pub fn update_modes(
                     let den = mode.den(sv);
                     let num = m.channels[ci].num[k];
                     let nv = sv * num.b1 + num.b0;
-                    let (w, z) = (mode.wn, mode.zeta);
                     // d/d ln ω and d/d ln ζ of (b1 s + b0)/(s² + 2ζω s + ω²)
-                    let dden_dlnw = (sv * (2.0 * z * w) + 2.0 * w * w) * 1.0;
-                    let dden_dlnz = sv * (2.0 * z * w);
+                    let [dden_dlnw, dden_dlnz] = mode.den_log_derivatives(sv);
                     let d_lnw = -nv * dden_dlnw / (den * den);
                     let d_lnz = -nv * dden_dlnz / (den * den);
                     let d_b0 = Complex64::new(scale[j], 0.0) / den;

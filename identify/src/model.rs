@@ -81,6 +81,13 @@ impl Mode {
         s * s + s * (2.0 * self.zeta * self.wn) + self.wn * self.wn
     }
 
+    /// `∂den/∂ln ω = 2ζω s + 2ω²` and `∂den/∂ln ζ = 2ζω s` at `s` (both linear in `s`, with
+    /// slope `2ζω`).
+    pub fn den_log_derivatives(&self, s: Complex64) -> [Complex64; 2] {
+        let slope = 2.0 * self.zeta * self.wn;
+        [s * slope + 2.0 * self.wn * self.wn, s * slope]
+    }
+
     /// True when both poles lie strictly in the left half plane.
     pub fn is_stable(&self) -> bool {
         self.wn > 0.0 && self.zeta > 0.0 && self.wn.is_finite() && self.zeta.is_finite()

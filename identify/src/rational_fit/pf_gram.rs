@@ -57,14 +57,18 @@ pub(crate) struct PfGram {
     m: DMatrix<Complex64>,
 }
 
-/// `S₁(q)` and `S₂(q)` over the lines `y` (`s = jy`) with weights `v` ([`crate::lanes`];
-/// one real division per line).
+/// `1/(jy − q)` as (re, im), with one real division.
+#[inline(always)]
+pub(crate) fn resolvent(y: f64, q: Complex64) -> (f64, f64) {
+    let x = y - q.im;
+    let d = 1.0 / (q.re * q.re + x * x);
+    (-q.re * d, -x * d)
+}
+
+/// `S₁(q)` and `S₂(q)` over the lines `y` (`s = jy`) with weights `v` ([`crate::lanes`]).
 fn sums(y: &[f64], v: &[f64], q: Complex64) -> (Complex64, Complex64) {
-    let qr2 = q.re * q.re;
     let [a, b, c, d] = crate::lanes::sum(y.len(), |k| {
-        let x = y[k] - q.im;
-        let dd = 1.0 / (qr2 + x * x);
-        let (rr, ri) = (-q.re * dd, -x * dd);
+        let (rr, ri) = resolvent(y[k], q);
         let vk = v[k];
         [
             vk * rr,
@@ -174,19 +178,11 @@ pub(crate) fn derivative_columns(modes: &[Mode], q: &[Complex64], x: &[f64]) -> 
         let (p, pb) = (q[2 * j], q[2 * j + 1]);
         let dl = p - pb;
         let (id2, id3) = (1.0 / (dl * dl), 1.0 / (dl * dl * dl));
-        let (w, z) = (md.wn, md.zeta);
-        // P(s) and P'(s) of both columns: ∂den/∂ln ω = ω (2ζ s + 2ω), ∂den/∂ln ζ = 2ζω s
-        let pw = |s: Complex64| -(x0 * s + x1) * (s * (2.0 * z) + 2.0 * w) * w;
-        let dpw = |s: Complex64| -((s * (2.0 * z) + 2.0 * w) * x0 + (x0 * s + x1) * (2.0 * z)) * w;
-        let pz = |s: Complex64| -(x0 * s * s + x1 * s) * (2.0 * z * w);
-        let dpz = |s: Complex64| -(s * (2.0 * x0) + x1) * (2.0 * z * w);
-        for (pp, dp) in [
-            (
-                &pw as &dyn Fn(Complex64) -> Complex64,
-                &dpw as &dyn Fn(Complex64) -> Complex64,
-            ),
-            (&pz, &dpz),
-        ] {
+        // P = −num · ∂den/∂θ (degree 2) and P' = −(x0 ∂den/∂θ + num · 2ζω) of both columns
+        let slope = 2.0 * md.zeta * md.wn;
+        for c in 0..2 {
+            let pp = |s: Complex64| -(s * x0 + x1) * md.den_log_derivatives(s)[c];
+            let dp = |s: Complex64| -(md.den_log_derivatives(s)[c] * x0 + (s * x0 + x1) * slope);
             // residues of P/((s−p)²(s−p̄)²): at p, 1/(s−p)²: P(p)/Δ², 1/(s−p): P'(p)/Δ² − 2P(p)/Δ³;
             // at p̄ the same with Δ → −Δ
             cols.push([

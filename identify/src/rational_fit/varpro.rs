@@ -76,9 +76,9 @@ fn derivatives(p: &Prepared, ci: usize, modes: &[Mode], rows: &Rows, x: &[f64]) 
             let inv = rows.inv_den[i * n + j];
             let num = s * x[2 * j] + x[2 * j + 1];
             let g = -(num * w) * (inv * inv);
-            // ∂den/∂ln ω = ω (2ζ s + 2ω), ∂den/∂ln ζ = 2ζω s
-            v.set(i, 2 * j, g * ((s * (2.0 * md.zeta) + 2.0 * md.wn) * md.wn));
-            v.set(i, 2 * j + 1, g * (s * (2.0 * md.zeta * md.wn)));
+            let [dw, dz] = md.den_log_derivatives(s);
+            v.set(i, 2 * j, g * dw);
+            v.set(i, 2 * j + 1, g * dz);
         }
     }
     v
@@ -141,21 +141,27 @@ fn channel_gram(
         return None;
     }
     let v = derivatives(p, ci, modes, rows, &x);
-    let vtv = &v.at * &v.a;
-    let mut b = &a.at * &v.a;
-    for (i, d) in g.d.iter().enumerate() {
-        b.row_mut(i).unscale_mut(*d);
-    }
-    let z = g.chol.l().solve_lower_triangular(&b)?;
-    let jtj = &vtv - z.transpose() * &z;
-    // the projected part must keep a fair share of every derivative column
-    if (0..jtj.nrows()).any(|i| !(jtj[(i, i)] >= 1e-6 * vtv[(i, i)])) {
+    let Some(jtj) = projected_jtj(&g, &v.at * &v.a, &a.at * &v.a) else {
         v.release();
         return None;
-    }
+    };
     let jtr = -(&v.at * &r);
     v.release();
     Some((x, r.norm_squared(), jtj, jtr))
+}
+
+/// `JᵀJ = VᵀV − (L⁻¹ D⁻¹ AᵀV)ᵀ(L⁻¹ D⁻¹ AᵀV)` from the scaled Gram factorisation `g` of `A`.
+/// `None` when the projected part keeps less than 1e-6 of a derivative column (its
+/// precision lost to cancellation) or the triangular solve fails.
+fn projected_jtj(g: &ScaledGram, vtv: DMatrix<f64>, mut atv: DMatrix<f64>) -> Option<DMatrix<f64>> {
+    for (i, d) in g.d.iter().enumerate() {
+        atv.row_mut(i).unscale_mut(*d);
+    }
+    let z = g.chol.l().solve_lower_triangular(&atv)?;
+    let jtj = &vtv - z.transpose() * &z;
+    (0..jtj.nrows())
+        .all(|i| jtj[(i, i)] >= 1e-6 * vtv[(i, i)])
+        .then_some(jtj)
 }
 
 /// [`evaluate`] for one channel without its design matrix: the Gram matrices `AᵀA`,
@@ -235,33 +241,16 @@ fn channel_pf(p: &Prepared, ci: usize, modes: &[Mode], q: &[Complex64]) -> Optio
     let (rr, ri) = resid(&x);
     let x: Vec<f64> = x.iter().copied().collect();
     let vcols = pf_gram::derivative_columns(modes, q, &x);
-    let vtv = pg.gram(&vcols);
-    let mut b = pg.cross(&acols, &vcols);
-    for (i, d) in g.d.iter().enumerate() {
-        b.row_mut(i).unscale_mut(*d);
-    }
-    let z = g.chol.l().solve_lower_triangular(&b)?;
-    let jtj = &vtv - z.transpose() * &z;
-    if (0..jtj.nrows()).any(|i| !(jtj[(i, i)] >= 1e-6 * vtv[(i, i)])) {
-        return None;
-    }
-    // Jᵀr = −Vᵀr, V as in [`derivatives`]: g = −w num/den², ∂ln ω: g ω (2ζ s + 2ω),
-    // ∂ln ζ: g 2ζω s
+    let jtj = projected_jtj(&g, pg.gram(&vcols), pg.cross(&acols, &vcols))?;
+    // Jᵀr = −Vᵀr, V as in [`derivatives`]: g ∂den/∂θ with g = −w num/den²
     let mut jtr = DVector::<f64>::zeros(2 * n);
     for (j, (md, (ir, ii))) in modes.iter().zip(&inv).enumerate() {
         let (x0, x1) = (x[2 * j], x[2 * j + 1]);
-        let (zw, w2) = (2.0 * md.zeta * md.wn, 2.0 * md.wn * md.wn);
         let [a, b] = sum(nl, |k| {
-            // g = −w (x1 + j y x0) / den²
-            let (sr, si) = (ir[k] * ir[k] - ii[k] * ii[k], 2.0 * ir[k] * ii[k]);
-            let (nr, ni) = (x1, y[k] * x0);
-            let (gr, gi) = (-w[k] * (nr * sr - ni * si), -w[k] * (nr * si + ni * sr));
-            // Re(conj(c) r) for c = g t: conj(g) r, then by conj(t)
-            let (cr, ci) = (gr * rr[k] + gi * ri[k], gr * ri[k] - gi * rr[k]);
-            // t_ω = 2ω² + j zw y → Re(conj(t) (cr + j ci)) = 2ω² cr + zw y ci
-            // t_ζ = j zw y      → Re(conj(t) (…)) = zw y ci
-            let t = zw * y[k] * ci;
-            [w2 * cr + t, t]
+            let s = Complex64::new(0.0, y[k]);
+            let iv = Complex64::new(ir[k], ii[k]);
+            let gr = (-(s * x0 + x1) * w[k] * (iv * iv)).conj() * Complex64::new(rr[k], ri[k]);
+            md.den_log_derivatives(s).map(|d| (d.conj() * gr).re)
         });
         jtr[2 * j] = -a;
         jtr[2 * j + 1] = -b;

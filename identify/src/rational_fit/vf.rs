@@ -164,11 +164,8 @@ fn partial_fractions(poles: &[Complex64]) -> (Vec<Complex64>, DMatrix<Complex64>
 /// `r = 1/(s − q)`, as four (re, im) pairs ([`crate::lanes`]; with `s = jy` one real
 /// division per line).
 fn pole_sums(cols: &[Vec<f64>; 5], q: Complex64) -> [f64; 8] {
-    let qr2 = q.re * q.re;
     crate::lanes::sum(cols[0].len(), |k| {
-        let x = cols[0][k] - q.im;
-        let d = 1.0 / (qr2 + x * x);
-        let (rr, ri) = (-q.re * d, -x * d);
+        let (rr, ri) = super::pf_gram::resolvent(cols[0][k], q);
         let (w2, vr, vi, w2h2) = (cols[1][k], cols[2][k], cols[3][k], cols[4][k]);
         [
             w2 * rr,
@@ -185,11 +182,9 @@ fn pole_sums(cols: &[Vec<f64>; 5], q: Complex64) -> [f64; 8] {
 
 /// `Σ_k 1/(s_k − q)` over the lines `s` (on the imaginary axis; [`crate::lanes`]).
 fn resolvent_sum(s: &[Complex64], q: Complex64) -> Complex64 {
-    let qr2 = q.re * q.re;
     let [re, im] = crate::lanes::sum(s.len(), |k| {
-        let x = s[k].im - q.im;
-        let d = 1.0 / (qr2 + x * x);
-        [-q.re * d, -x * d]
+        let (re, im) = super::pf_gram::resolvent(s[k].im, q);
+        [re, im]
     });
     Complex64::new(re, im)
 }
