@@ -422,11 +422,8 @@ fn track_modes(fits: &mut [PoseFit], opts: &CampaignOptions) -> Result<Vec<Strin
         }
         let (_, i, j) = pick;
         let mut start = fits[j].model.clone();
-        // Where the pose's own fit has a mode matching one of the neighbour's (by
-        // frequency and shape, and within 20 % in frequency), start that mode there: the
-        // refinement then begins near this pose's optimum instead of where the neighbour's
-        // mode sat (modes move by up to ~10 % between neighbouring poses), and a mode the
-        // pose's own fit lacks is still carried from the neighbour.
+        // start at the pose's own matched modes (modes move by up to ~10 % between
+        // neighbouring poses); a mode the own fit lacks is carried from the neighbour
         if fits[i].model.modes.len() == m {
             let own = match_modes(&fits[j].model, &fits[i].model);
             for (s, o) in start.modes.iter_mut().zip(&own.modes) {

@@ -353,9 +353,11 @@ struct Problem<'a> {
 /// Per (input, free mode): the `[q, q̇]` columns of one record (fitted samples).
 type Cols = Vec<(Axis, usize, [Vec<f64>; 2])>;
 
-/// One record's part of an evaluation: per output the target (measured minus held-mode
-/// response), and the free-mode columns.
+/// One record's part of an evaluation: the conditioned forces, per output the target
+/// (measured minus held-mode response), and the free-mode columns.
 struct RecPart {
+    /// The forces' spectra conditioned on the noise floors ([`Prepared::wiener`]).
+    u: Vec<Vec<Complex64>>,
     targets: Vec<Vec<f64>>,
     cols: Cols,
     /// Per output of the problem: this record's share of the numerators' normal equations.
@@ -418,6 +420,7 @@ impl Problem<'_> {
             normal: self.normal_parts(ri, &targets, &cols),
             cols,
             targets,
+            u,
         }
     }
 
@@ -504,15 +507,15 @@ impl Problem<'_> {
     }
 
     /// The evaluation at `t` = `theta` with parameter `i` moved, from the parts `base` of
-    /// the evaluation at `theta`: a mode parameter changes every record's columns but no
-    /// target, a noise floor only its own record. The same numbers as [`Problem::eval`].
+    /// the evaluation at `theta`: a mode parameter changes every record's columns but
+    /// neither its conditioned forces nor its targets, a noise floor only its own record.
+    /// The same numbers as [`Problem::eval`].
     fn eval_moved(&self, t: &[f64], i: usize, base: &[RecPart]) -> Eval {
         if i < 2 * self.free.len() {
             let moved: Vec<(Cols, Vec<Option<Normal>>)> = (0..self.recs.len())
                 .into_par_iter()
                 .map(|ri| {
-                    let p = &self.recs[ri];
-                    let cols = self.rec_columns(t, ri, &p.wiener(&self.noise_of(t, ri)));
+                    let cols = self.rec_columns(t, ri, &base[ri].u);
                     let normal = self.normal_parts(ri, &base[ri].targets, &cols);
                     (cols, normal)
                 })

@@ -456,9 +456,7 @@ fn fit_percentages(prep: &Prepared, model: &ModalModel) -> Vec<(Channel, f64)> {
         .iter()
         .enumerate()
         .map(|(ci, ch)| {
-            let idx: Vec<usize> = (0..prep.n_lines())
-                .filter(|&k| prep.w[ci][k] > 0.0)
-                .collect();
+            let idx = &prep.fitted[ci];
             let truth: Vec<Complex64> = idx.iter().map(|&k| ch.h[k]).collect();
             let est: Vec<Complex64> = idx
                 .iter()

@@ -27,6 +27,8 @@ pub(crate) struct Prepared {
     pub h_scale: Vec<f64>,
     /// Amplitude weight per channel and line (0 = not fitted).
     pub w: Vec<Vec<f64>>,
+    /// Per channel the lines with positive weight (the fitted ones), ascending.
+    pub fitted: Vec<Vec<usize>>,
 }
 
 /// Largest coherence that still raises the weight; above it every line counts fully.
@@ -124,6 +126,10 @@ impl Prepared {
             h_scale.push(sc);
             h.push(c.h.iter().map(|v| v / sc).collect());
         }
+        let fitted = w
+            .iter()
+            .map(|wc| (0..wc.len()).filter(|&k| wc[k] > 0.0).collect())
+            .collect();
         Ok(Prepared {
             channels: band.channels.iter().map(|c| c.channel).collect(),
             band,
@@ -132,6 +138,7 @@ impl Prepared {
             h,
             h_scale,
             w,
+            fitted,
         })
     }
 

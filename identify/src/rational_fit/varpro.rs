@@ -41,7 +41,7 @@ struct Rows {
 /// The real-form design matrix (with its transpose) and weighted data of one channel
 /// (rows of lines with positive weight: real parts then imaginary parts interleaved).
 fn design(p: &Prepared, ci: usize, modes: &[Mode]) -> (Tall, DVector<f64>, Rows) {
-    let lines: Vec<usize> = (0..p.n_lines()).filter(|&k| p.w[ci][k] > 0.0).collect();
+    let lines = p.fitted[ci].clone();
     let m = 2 * modes.len() + 1;
     let mut a = Tall::zeros(lines.len(), m);
     let mut y = DVector::<f64>::zeros(2 * lines.len());
@@ -173,7 +173,7 @@ fn channel_pf(p: &Prepared, ci: usize, modes: &[Mode], q: &[Complex64]) -> Optio
     use crate::lanes::sum;
     let n = modes.len();
     let m = 2 * n + 1;
-    let lines: Vec<usize> = (0..p.n_lines()).filter(|&k| p.w[ci][k] > 0.0).collect();
+    let lines = &p.fitted[ci];
     let nl = lines.len();
     // the fitted lines (s = jy), weights, weighted data
     let y: Vec<f64> = lines.iter().map(|&k| p.s[k].im).collect();
@@ -184,16 +184,14 @@ fn channel_pf(p: &Prepared, ci: usize, modes: &[Mode], q: &[Complex64]) -> Optio
     let pg = PfGram::new(&y, &v, q)?;
     let acols = pf_gram::basis_columns(q);
     let g = ScaledGram::of_gram(pg.gram(&acols))?;
-    // 1/den of every mode on the lines, mode by mode (re, im): den = ω² − y² + j 2ζω y
+    // 1/den of every mode on the lines, mode by mode (re, im)
     let inv: Vec<(Vec<f64>, Vec<f64>)> = modes
         .iter()
         .map(|md| {
-            let (w2, c) = (md.wn * md.wn, 2.0 * md.zeta * md.wn);
             y.iter()
                 .map(|&yk| {
-                    let (a, b) = (w2 - yk * yk, c * yk);
-                    let d = 1.0 / (a * a + b * b);
-                    (a * d, -b * d)
+                    let v = 1.0 / md.den(Complex64::new(0.0, yk));
+                    (v.re, v.im)
                 })
                 .unzip()
         })
@@ -317,7 +315,7 @@ fn evaluate(p: &Prepared, modes: &[Mode]) -> Option<(Solved, DMatrix<f64>, DVect
     let q = pf_gram::mode_poles(modes);
     for ci in 0..p.channels.len() {
         let m = 2 * n + 1;
-        if 2 * p.w[ci].iter().filter(|&&w| w > 0.0).count() < m {
+        if 2 * p.fitted[ci].len() < m {
             coefs.push(vec![0.0; m]);
             continue;
         }

@@ -240,7 +240,7 @@ fn step(p: &Prepared, poles: &[Complex64]) -> Option<Vec<Complex64>> {
     let mut row = 0;
     let mut relax_scale = 0.0;
     for ci in 0..n_ch {
-        let lines: Vec<usize> = (0..nl).filter(|&k| p.w[ci][k] > 0.0).collect();
+        let lines = &p.fitted[ci];
         if lines.is_empty() {
             continue;
         }
