@@ -190,8 +190,10 @@ fn channel_pf(p: &Prepared, ci: usize, modes: &[Mode], q: &[Complex64]) -> Optio
         .map(|md| {
             y.iter()
                 .map(|&yk| {
-                    let v = 1.0 / md.den(Complex64::new(0.0, yk));
-                    (v.re, v.im)
+                    // conj(den)/|den|²: one division
+                    let d = md.den(Complex64::new(0.0, yk));
+                    let r = 1.0 / d.norm_sqr();
+                    (d.re * r, -d.im * r)
                 })
                 .unzip()
         })
