@@ -36,8 +36,13 @@ use vmachine::structure::ModalMachine;
 
 type Res<T> = Result<T, Box<dyn std::error::Error>>;
 
-/// Median wall time in milliseconds of `runs` calls of `f` (after one warm-up call).
+/// Median wall time in milliseconds of `runs` calls of `f` (after one warm-up call);
+/// `MTWIN_BENCH_RUNS=N` overrides `runs` (many runs of one case for a profiler).
 fn median_ms<T>(runs: usize, mut f: impl FnMut() -> T) -> f64 {
+    let runs = std::env::var("MTWIN_BENCH_RUNS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(runs);
     std::hint::black_box(f());
     let mut t: Vec<f64> = (0..runs)
         .map(|_| {

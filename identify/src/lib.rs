@@ -37,6 +37,7 @@ pub mod atomic;
 pub mod axis;
 pub mod campaign;
 pub mod diagnose;
+mod eigen;
 pub mod error;
 pub mod extended;
 pub mod frf;

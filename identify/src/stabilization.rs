@@ -23,6 +23,7 @@
 //! computational poles, and their roots cost O(n³) each (set `quiet_orders = 0` for every
 //! order up to the top).
 
+use crate::eigen;
 use crate::error::{Error, Result};
 use crate::frf::Frf;
 use crate::rational_fit::linalg;
@@ -129,8 +130,8 @@ impl StabilizationDiagram {
 }
 
 /// Roots of a real polynomial, `coeffs[0]` the coefficient of the highest power
-/// (numpy `roots` convention): eigenvalues of the companion matrix. Leading zeros are
-/// ignored; a constant polynomial has no roots.
+/// (numpy `roots` convention): eigenvalues of the balanced companion matrix (as numpy
+/// and MATLAB `roots`). Leading zeros are ignored; a constant polynomial has no roots.
 pub fn poly_roots(coeffs: &[f64]) -> Vec<Complex64> {
     let first = coeffs.iter().position(|c| *c != 0.0);
     let Some(first) = first else {
@@ -141,9 +142,14 @@ pub fn poly_roots(coeffs: &[f64]) -> Vec<Complex64> {
     if n == 0 {
         return Vec::new();
     }
+    let monic: Vec<f64> = c[1..].iter().map(|v| v / c[0]).collect();
+    if let Some(r) = eigen::companion_roots(&monic) {
+        return r;
+    }
+    // hqr did not converge: nalgebra's Schur iteration on the same matrix
     let mut m = DMatrix::<f64>::zeros(n, n);
     for j in 0..n {
-        m[(0, j)] = -c[j + 1] / c[0];
+        m[(0, j)] = -monic[j];
     }
     for i in 1..n {
         m[(i, i - 1)] = 1.0;
