@@ -55,6 +55,23 @@ fn median_ms<T>(runs: usize, mut f: impl FnMut() -> T) -> f64 {
     t[t.len() / 2]
 }
 
+/// The number of threads of [`on_all_cores`].
+fn all_cores() -> usize {
+    std::thread::available_parallelism().map_or(1, |n| n.get())
+}
+
+/// [`median_ms`] inside a rayon pool of [`all_cores`] threads (every other measurement
+/// runs on one); `None` on a one-core machine.
+fn on_all_cores<T>(runs: usize, f: impl FnMut() -> T + Send) -> Res<Option<f64>> {
+    if all_cores() < 2 {
+        return Ok(None);
+    }
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(all_cores())
+        .build()?;
+    Ok(Some(pool.install(|| median_ms(runs, f))))
+}
+
 /// Worst channel fit of `model` against `truth` on the lines inside `band`.
 fn worst_fit(model: &ModalModel, truth: &Frf, band: (f64, f64)) -> f64 {
     let b = truth.band(band.0, band.1);
@@ -135,6 +152,8 @@ fn case_a(dir: &Path, machine: &ModalMachine) -> Res<Value> {
     let opts = FrfOptions::default();
     let est = estimate_frf(std::slice::from_ref(&rec), &opts)?;
     let ms = median_ms(5, || estimate_frf(std::slice::from_ref(&rec), &opts));
+    // the segments' FFTs and the line chunks of the spectra on every core
+    let ms_all_cores = on_all_cores(5, || estimate_frf(std::slice::from_ref(&rec), &opts))?;
     let truth = input_channels(
         machine.frf_at(pose, &est.frf.freqs_hz, &[Axis::X, Axis::Y]),
         Axis::X,
@@ -145,15 +164,17 @@ fn case_a(dir: &Path, machine: &ModalMachine) -> Res<Value> {
     let nfft = (rec.fs() / est.df_hz).round() as usize;
     let (ffts, floor_ms) = fft_floor(&rec, nfft, opts.overlap);
     println!(
-        "a. FRF estimation: {} ({} lines), fit {fit:.3} %, {ms:.1} ms",
+        "a. FRF estimation: {} ({} lines), fit {fit:.3} %, {ms:.1} ms (all cores: {})",
         est.method,
-        est.frf.freqs_hz.len()
+        est.frf.freqs_hz.len(),
+        ms_all_cores.map_or("-".into(), |m| format!("{m:.1} ms"))
     );
     Ok(json!({
         "timeseries": path_str(&ts), "truth": path_str(&truth_path),
         "nfft": nfft, "overlap": opts.overlap, "band": [MACHINE_BAND.0, MACHINE_BAND.1],
         "method": est.method,
         "mtwin": {"fit": fit, "ms": ms, "note": "estimate_frf, default options"},
+        "mtwin_all_cores": ms_all_cores.map(|m| json!({"ms": m, "threads": all_cores()})),
         "fft_floor": {"ffts": ffts, "ms": floor_ms},
     }))
 }
@@ -303,15 +324,7 @@ fn case_d(dir: &Path, machine: &ModalMachine) -> Res<Value> {
     let res = identify_campaign(&recs, &opts, &|_, _| {})?;
     let ms = median_ms(3, || identify_campaign(&recs, &opts, &|_, _| {}));
     // the same campaign on every core (rayon across poses), for the row that shows it
-    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let ms_all_cores = if threads > 1 {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()?;
-        Some(pool.install(|| median_ms(3, || identify_campaign(&recs, &opts, &|_, _| {}))))
-    } else {
-        None
-    };
+    let ms_all_cores = on_all_cores(3, || identify_campaign(&recs, &opts, &|_, _| {}))?;
     let mut entries = Vec::new();
     let mut worst = f64::INFINITY;
     for (i, (p, rec)) in poses.iter().zip(&recs).enumerate() {
@@ -356,7 +369,7 @@ fn case_d(dir: &Path, machine: &ModalMachine) -> Res<Value> {
     println!(
         "d. campaign of {} poses: worst fit {worst:.3} %, {ms:.0} ms ({} threads: {})",
         poses.len(),
-        threads,
+        all_cores(),
         ms_all_cores.map_or("-".into(), |m| format!("{m:.0} ms"))
     );
     Ok(json!({
@@ -364,7 +377,7 @@ fn case_d(dir: &Path, machine: &ModalMachine) -> Res<Value> {
         "band": [MACHINE_BAND.0, MACHINE_BAND.1],
         "mtwin": {"fit": worst, "ms": ms,
                   "note": "identify_campaign, default options: H1 + automatic-order fit per pose, mode tracking, leave-one-out interpolation check"},
-        "mtwin_all_cores": ms_all_cores.map(|m| json!({"ms": m, "threads": threads})),
+        "mtwin_all_cores": ms_all_cores.map(|m| json!({"ms": m, "threads": all_cores()})),
     }))
 }
 

@@ -56,6 +56,11 @@
 //! per channel pair, and the impact/continuous decision looks at the same systematic
 //! subsample of a long force as a streamed read does.
 //!
+//! On several cores (rayon) a Welch estimate in memory windows and transforms one
+//! segment per thread at a time and adds their spectra in chunks of lines, each line
+//! summed in segment order: the result is the same bit for bit on any number of threads
+//! and equals the streamed estimate, which takes one segment at a time.
+//!
 //! ```
 //! use identify::spectra::{estimate_frf, FrfOptions, Excitation};
 //! use identify::timeseries::{TimeSeries, ResponseKind};
@@ -77,6 +82,7 @@ use crate::error::{Error, Result};
 use crate::frf::{Frf, FrfChannel};
 use crate::timeseries::{ResponseKind, TimeSeries};
 use num_complex::Complex64;
+use rayon::prelude::*;
 use realfft::{RealFftPlanner, RealToComplex};
 use std::f64::consts::PI;
 use std::sync::Arc;
@@ -259,7 +265,8 @@ pub fn estimate_frf(records: &[TimeSeries], opts: &FrfOptions) -> Result<FrfEsti
     let mut ctx = Ctx::new(dt, opts);
     match excitation {
         Excitation::Impact => impact::estimate(records, &infos, &mut ctx),
-        Excitation::Continuous => continuous(records, &infos, &mut ctx),
+        // on a worker of the pool: the batches' parallel parts then fork without a hand-off
+        Excitation::Continuous => rayon::scope(|_| continuous(records, &infos, &mut ctx)),
         _ => chirp(records, &infos, &mut ctx),
     }
 }
@@ -443,6 +450,8 @@ thread_local! {
     static PLANS: Cache<Plan> = const { std::cell::RefCell::new(Vec::new()) };
     /// Periodic Hann windows, likewise.
     static WINDOWS: Cache<Arc<[f64]>> = const { std::cell::RefCell::new(Vec::new()) };
+    /// Input and scratch buffers of the Welch transforms ([`Welch::add_segments`]).
+    static BUFFERS: std::cell::RefCell<(Vec<f64>, Vec<Complex64>)> = const { std::cell::RefCell::new((Vec::new(), Vec::new())) };
 }
 
 /// The entry of length `n` of a per-thread cache, made by `make` when missing: a
@@ -487,7 +496,6 @@ struct RealDft {
     plan: Arc<dyn RealToComplex<f64>>,
     buf: Vec<f64>,
     scratch: Vec<Complex64>,
-    nl: usize,
 }
 
 impl RealDft {
@@ -496,25 +504,51 @@ impl RealDft {
         RealDft {
             buf: plan.make_input_vec(),
             scratch: plan.make_scratch_vec(),
-            nl: n_lines(n),
             plan,
         }
     }
 
-    /// Transforms `self.buf` (filled by the caller) into `dst` (the whole half spectrum,
-    /// line k at index k, the form [`Accumulator::add`] takes), lines `1..=nl` multiplied
-    /// by `scale[k - 1]` when given.
+    /// Transforms `self.buf` (filled by the caller) into `dst` ([`transform`]).
     fn run_into(&mut self, dst: &mut Vec<Complex64>, scale: Option<&[Complex64]>) -> Result<()> {
-        dst.resize(self.plan.complex_len(), Complex64::default());
-        self.plan
-            .process_with_scratch(&mut self.buf, dst, &mut self.scratch)
-            .map_err(|e| Error::Numerical(format!("FFT failed: {e}")))?;
-        if let Some(s) = scale {
-            for (d, s) in dst[1..=self.nl].iter_mut().zip(s) {
-                *d *= s;
-            }
+        transform(&*self.plan, &mut self.buf, dst, &mut self.scratch, scale)
+    }
+}
+
+/// Transforms `buf` (destroyed) into `dst`, the whole half spectrum with line k at index k
+/// (the form [`Accumulator::add`] takes), lines `1..=nl` multiplied by `scale[k - 1]` when
+/// given.
+fn transform(
+    plan: &dyn RealToComplex<f64>,
+    buf: &mut [f64],
+    dst: &mut Vec<Complex64>,
+    scratch: &mut [Complex64],
+    scale: Option<&[Complex64]>,
+) -> Result<()> {
+    dst.resize(plan.complex_len(), Complex64::default());
+    plan.process_with_scratch(buf, dst, scratch)
+        .map_err(|e| Error::Numerical(format!("FFT failed: {e}")))?;
+    if let Some(s) = scale {
+        for (d, s) in dst[1..=n_lines(plan.len())].iter_mut().zip(s) {
+            *d *= s;
         }
-        Ok(())
+    }
+    Ok(())
+}
+
+/// The half spectra of one segment: every input force and output response, in an
+/// accumulator's order.
+#[derive(Default)]
+pub(crate) struct Spectra {
+    fs: Vec<Vec<Complex64>>,
+    ys: Vec<Vec<Complex64>>,
+}
+
+impl Spectra {
+    pub(crate) fn new(inputs: usize, outputs: usize) -> Self {
+        Spectra {
+            fs: vec![Vec::new(); inputs],
+            ys: vec![Vec::new(); outputs],
+        }
     }
 }
 
@@ -558,35 +592,29 @@ impl Accumulator {
         a * self.nl + k
     }
 
-    /// Adds one average: the half spectra (line k at index k, as [`RealDft::run_into`]
-    /// writes them) of every input force and output response, in the accumulator's order.
-    fn add(&mut self, fs: &[Vec<Complex64>], ys: &[Vec<Complex64>]) {
+    /// Adds one average per segment of `batch`. Each line's sums run over the segments
+    /// in order, so a batch adds exactly what its segments added one by one would; the
+    /// lines are split into chunks summed in parallel (rayon).
+    fn add(&mut self, batch: &[Spectra]) {
         let (ni, no, nl) = (self.inputs.len(), self.outputs.len(), self.nl);
-        fn lines(v: &[Complex64], nl: usize) -> &[Complex64] {
-            &v[1..=nl]
-        }
-        for (i, fi) in fs.iter().map(|v| lines(v, nl)).enumerate() {
-            for (j, fj) in fs.iter().map(|v| lines(v, nl)).enumerate() {
-                let r = self.at(i * ni + j, 0);
-                for ((g, a), b) in self.gff[r..r + nl].iter_mut().zip(fi).zip(fj) {
-                    *g += a.conj() * b;
-                }
+        accumulate(&mut self.gff, nl, batch, |g, s, a, k| {
+            let (fi, fj) = (&s.fs[a / ni][k.clone()], &s.fs[a % ni][k]);
+            for ((g, x), y) in g.iter_mut().zip(fi).zip(fj) {
+                *g += x.conj() * y;
             }
-            for (o, yo) in ys.iter().map(|v| lines(v, nl)).enumerate() {
-                let r = self.at(i * no + o, 0);
-                for ((g, a), b) in self.gfy[r..r + nl].iter_mut().zip(fi).zip(yo) {
-                    *g += a.conj() * b;
-                }
+        });
+        accumulate(&mut self.gfy, nl, batch, |g, s, a, k| {
+            let (fi, yo) = (&s.fs[a / no][k.clone()], &s.ys[a % no][k]);
+            for ((g, x), y) in g.iter_mut().zip(fi).zip(yo) {
+                *g += x.conj() * y;
             }
-        }
-        for (o, yo) in ys.iter().map(|v| lines(v, nl)).enumerate() {
-            let r = self.at(o, 0);
-            let g = &mut self.gyy[r..r + nl];
-            for (g, y) in g.iter_mut().zip(yo) {
+        });
+        accumulate(&mut self.gyy, nl, batch, |g, s, o, k| {
+            for (g, y) in g.iter_mut().zip(&s.ys[o][k]) {
                 *g += y.norm_sqr();
             }
-        }
-        self.averages += 1;
+        });
+        self.averages += batch.len();
     }
 
     /// Lines `(lo, hi)` (1-based line numbers k, frequency k·df) of the contiguous range
@@ -696,6 +724,35 @@ impl Accumulator {
         }
         Ok((chans, singular))
     }
+}
+
+/// Lines per chunk of [`accumulate`] (a chunk of every spectrum a segment adds stays in
+/// the core's cache while the batch's segments are summed into it).
+const LINE_CHUNK: usize = 2048;
+
+/// Adds a batch of segments to the rows (`nl` lines each) of one accumulated spectrum:
+/// `add(chunk, segment, row, lines)` adds the segment's terms of row `row` at the spectrum
+/// indices `lines` (line k at index k) to `chunk`. Chunks of lines run in parallel, the
+/// segments of a chunk in order.
+fn accumulate<T: Send>(
+    rows: &mut [T],
+    nl: usize,
+    batch: &[Spectra],
+    add: impl Fn(&mut [T], &Spectra, usize, std::ops::Range<usize>) + Sync,
+) {
+    if nl == 0 {
+        return;
+    }
+    rows.par_chunks_mut(nl).enumerate().for_each(|(a, row)| {
+        row.par_chunks_mut(LINE_CHUNK)
+            .enumerate()
+            .for_each(|(c, chunk)| {
+                let k0 = 1 + c * LINE_CHUNK;
+                for s in batch {
+                    add(chunk, s, a, k0..k0 + chunk.len());
+                }
+            });
+    });
 }
 
 /// Solves `A x = b` (n ≤ 3, row-major `a`) by Gaussian elimination with partial pivoting;
@@ -925,45 +982,64 @@ fn welch_length(lens: &[usize], opts: &FrfOptions) -> Result<usize> {
 }
 
 /// The Welch core shared by the in-memory and the streamed estimate: window, planned
-/// DFT and the spectra of one segment.
+/// DFT and the spectra of a batch of segments.
+///
+/// The segments of a batch are windowed and transformed in parallel (rayon) and added by
+/// [`Accumulator::add`], which sums every line in segment order: the estimate is the
+/// same, bit for bit, for any batch size and number of threads.
 struct Welch {
     window: Arc<[f64]>,
-    dft: RealDft,
-    fs: Vec<Vec<Complex64>>,
-    ys: Vec<Vec<Complex64>>,
+    plan: Arc<dyn RealToComplex<f64>>,
+    spectra: Vec<Spectra>,
 }
 
 impl Welch {
     fn new(n: usize) -> Self {
         Welch {
             window: hann_kept(n),
-            dft: RealDft::new(n),
-            fs: Vec::new(),
-            ys: Vec::new(),
+            plan: plan(n),
+            spectra: Vec::new(),
         }
     }
 
-    /// Windows and transforms one segment (`n` samples) of every input force and output
-    /// response, in the accumulator's order, and adds its spectra to `acc`; `conv` turns
-    /// response spectra into displacement ([`to_displacement`]).
-    fn add_segment<'x>(
+    /// Segments per batch for an estimate in memory: one per thread (more only adds
+    /// spectra that no longer fit the cores' caches).
+    fn batch() -> usize {
+        rayon::current_num_threads()
+    }
+
+    /// Windows and transforms a batch of segments and adds them to `acc` in order. Each
+    /// segment is its `n` samples of every input force (the first `inputs` slices) and
+    /// output response, in the accumulator's order; `conv` turns response spectra into
+    /// displacement ([`to_displacement`]).
+    fn add_segments(
         &mut self,
         acc: &mut Accumulator,
         conv: Option<&[Complex64]>,
-        forces: impl ExactSizeIterator<Item = &'x [f64]>,
-        responses: impl ExactSizeIterator<Item = &'x [f64]>,
+        inputs: usize,
+        segments: &[Vec<&[f64]>],
     ) -> Result<()> {
-        self.fs.resize_with(forces.len(), Vec::new);
-        self.ys.resize_with(responses.len(), Vec::new);
-        for (x, f) in forces.zip(self.fs.iter_mut()) {
-            fill_windowed(&mut self.dft.buf, x, &self.window);
-            self.dft.run_into(f, None)?;
+        let (plan, window) = (&*self.plan, &*self.window);
+        if self.spectra.len() < segments.len() {
+            self.spectra.resize_with(segments.len(), Spectra::default);
         }
-        for (x, y) in responses.zip(self.ys.iter_mut()) {
-            fill_windowed(&mut self.dft.buf, x, &self.window);
-            self.dft.run_into(y, conv)?;
+        let mut jobs = Vec::new();
+        for (seg, sp) in segments.iter().zip(&mut self.spectra) {
+            sp.fs.resize_with(inputs, Vec::new);
+            sp.ys.resize_with(seg.len() - inputs, Vec::new);
+            let dsts =
+                (sp.fs.iter_mut().map(|d| (d, None))).chain(sp.ys.iter_mut().map(|d| (d, conv)));
+            jobs.extend(seg.iter().zip(dsts).map(|(x, (d, c))| (*x, d, c)));
         }
-        acc.add(&self.fs, &self.ys);
+        jobs.into_par_iter().try_for_each(|(x, dst, scale)| {
+            BUFFERS.with_borrow_mut(|(buf, scratch)| {
+                buf.resize(window.len(), 0.0);
+                scratch.resize(plan.get_scratch_len(), Complex64::default());
+                fill_windowed(buf, x, window);
+                transform(plan, buf, dst, scratch, scale)
+            })
+        })?;
+        acc.add(&self.spectra[..segments.len()]);
         Ok(())
     }
 }
@@ -1021,18 +1097,19 @@ fn continuous(records: &[TimeSeries], infos: &[RecordInfo], ctx: &mut Ctx) -> Re
                     .push(too_short_for_segment(&rec.source, rec.len(), n));
                 continue;
             }
-            for s in 0..count {
-                let seg = s * hop..s * hop + n;
-                welch.add_segment(
-                    &mut acc,
-                    conv.as_deref(),
-                    inputs
-                        .iter()
-                        .map(|&a| &rec.force(a).unwrap_or(&[])[seg.clone()]),
-                    outputs
-                        .iter()
-                        .map(|&a| &rec.response(a).unwrap_or(&[])[seg.clone()]),
-                )?;
+            let starts: Vec<usize> = (0..count).map(|s| s * hop).collect();
+            for batch in starts.chunks(Welch::batch()) {
+                let segments: Vec<Vec<&[f64]>> = batch
+                    .iter()
+                    .map(|&s| {
+                        let seg = s..s + n;
+                        (inputs.iter().map(|&a| rec.force(a)))
+                            .chain(outputs.iter().map(|&a| rec.response(a)))
+                            .map(|x| &x.unwrap_or(&[])[seg.clone()])
+                            .collect()
+                    })
+                    .collect();
+                welch.add_segments(&mut acc, conv.as_deref(), inputs.len(), &segments)?;
             }
         }
         check_averages(&acc, n, ctx)?;
@@ -1069,8 +1146,7 @@ fn chirp(records: &[TimeSeries], infos: &[RecordInfo], ctx: &mut Ctx) -> Result<
     let mut accs = Vec::new();
     for (inputs, outputs, members) in groups(infos, &mut ctx.warnings) {
         let mut acc = Accumulator::new(inputs.clone(), outputs.clone(), nl);
-        let mut fs = vec![Vec::new(); inputs.len()];
-        let mut ys = vec![Vec::new(); outputs.len()];
+        let mut sp = Spectra::new(inputs.len(), outputs.len());
         for &r in &members {
             let rec = &records[r];
             let conv = to_displacement(rec.response_kind, n, ctx.dt, 0.0);
@@ -1080,14 +1156,14 @@ fn chirp(records: &[TimeSeries], infos: &[RecordInfo], ctx: &mut Ctx) -> Result<
                 for (i, &a) in inputs.iter().enumerate() {
                     dft.buf
                         .copy_from_slice(&rec.force(a).unwrap_or(&[])[start..start + n]);
-                    dft.run_into(&mut fs[i], None)?;
+                    dft.run_into(&mut sp.fs[i], None)?;
                 }
                 for (o, &a) in outputs.iter().enumerate() {
                     dft.buf
                         .copy_from_slice(&rec.response(a).unwrap_or(&[])[start..start + n]);
-                    dft.run_into(&mut ys[o], conv.as_deref())?;
+                    dft.run_into(&mut sp.ys[o], conv.as_deref())?;
                 }
-                acc.add(&fs, &ys);
+                acc.add(std::slice::from_ref(&sp));
             }
         }
         accs.push(acc);

@@ -349,3 +349,37 @@ fn long_column_subsample_is_every_stride_th_sample() {
     assert_eq!(s.subsample, expect);
     assert!(s.subsample.len() <= SUBSAMPLE_CAP);
 }
+
+#[test]
+fn in_memory_batches_equal_streamed_for_any_thread_count() {
+    // In memory, 2 × threads segments are transformed at once (their FFTs in parallel)
+    // and added line by line in segment order; streamed, one segment at a time. The sums
+    // are the same whatever the batch and the number of threads.
+    let dir = tempfile::tempdir().unwrap();
+    let p = write(dir.path(), "mimo.csv", &mimo_record(41_017, 5));
+    let o = FrfOptions {
+        nfft: Some(2048),
+        ..opts(Estimator::H1)
+    };
+    let scan = scan_timeseries(&p).unwrap();
+    let streamed = estimate_frf_streamed(&scan, &o).unwrap();
+    let rec = read_timeseries(&p).unwrap();
+    // two records of the same group: a batch never spans records
+    let short = identify::diagnose::slice(&rec, 0, 9_001);
+    let mut two = Vec::new();
+    for threads in [1, 2, 3] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        let mem = pool.install(|| estimate_frf(std::slice::from_ref(&rec), &o).unwrap());
+        assert!(mem.hits_used >= 30, "{} averages", mem.hits_used);
+        assert_eq!(mem.frf, streamed.frf, "{threads} threads");
+        two.push(pool.install(|| estimate_frf(&[rec.clone(), short.clone()], &o).unwrap()));
+    }
+    assert_eq!(two[0].hits_used, streamed.hits_used + 7);
+    for t in &two[1..] {
+        assert_eq!(t.frf, two[0].frf);
+    }
+    assert_ne!(two[0].frf, streamed.frf);
+}

@@ -165,8 +165,7 @@ pub(super) fn estimate(
             .filter(|a| group.iter().all(|h| infos[h.record].outputs.contains(a)))
             .collect();
         let mut acc = Accumulator::new(vec![input], outputs.clone(), nl);
-        let mut fs = vec![Vec::new(); 1];
-        let mut ys = vec![Vec::new(); outputs.len()];
+        let mut sp = Spectra::new(1, outputs.len());
         for h in group {
             let rec = &records[h.record];
             let conv = to_displacement(rec.response_kind, n, ctx.dt, sigma);
@@ -184,15 +183,15 @@ pub(super) fn estimate(
                     0.0
                 };
             }
-            dft.run_into(&mut fs[0], None)?;
+            dft.run_into(&mut sp.fs[0], None)?;
             for (o, &a) in outputs.iter().enumerate() {
                 let y = &rec.response(a).unwrap_or(&[])[h.start..h.start + avail];
                 for (i, b) in dft.buf.iter_mut().enumerate() {
                     *b = if i < avail { y[i] * ewin[i] } else { 0.0 };
                 }
-                dft.run_into(&mut ys[o], conv.as_deref())?;
+                dft.run_into(&mut sp.ys[o], conv.as_deref())?;
             }
-            acc.add(&fs, &ys);
+            acc.add(std::slice::from_ref(&sp));
         }
         accs.push(acc);
     }

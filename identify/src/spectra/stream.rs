@@ -64,6 +64,7 @@ pub fn estimate_frf_streamed(scan: &RecordScan, opts: &FrfOptions) -> Result<Frf
     let info = RecordInfo::from_scan(scan)?;
     let mut ctx = Ctx::new(scan.dt, opts);
     let n = welch_length(&[scan.rows], opts)?;
+    // one segment at a time: memory stays that of one segment per channel
     let mut welch = Welch::new(n);
     let mut accs = Vec::new();
     for (inputs, outputs, _) in groups(std::slice::from_ref(&info), &mut ctx.warnings) {
@@ -91,12 +92,8 @@ pub fn estimate_frf_streamed(scan: &RecordScan, opts: &FrfOptions) -> Result<Frf
                 }
                 if rings[0].len() == n {
                     if done < count {
-                        welch.add_segment(
-                            &mut acc,
-                            conv.as_deref(),
-                            rings[..ni].iter().map(Vec::as_slice),
-                            rings[ni..].iter().map(Vec::as_slice),
-                        )?;
+                        let segment = rings.iter().map(Vec::as_slice).collect();
+                        welch.add_segments(&mut acc, conv.as_deref(), ni, &[segment])?;
                         done += 1;
                     }
                     for ring in &mut rings {
