@@ -265,8 +265,7 @@ pub fn estimate_frf(records: &[TimeSeries], opts: &FrfOptions) -> Result<FrfEsti
     let mut ctx = Ctx::new(dt, opts);
     match excitation {
         Excitation::Impact => impact::estimate(records, &infos, &mut ctx),
-        // on a worker of the pool: the batches' parallel parts then fork without a hand-off
-        Excitation::Continuous => rayon::scope(|_| continuous(records, &infos, &mut ctx)),
+        Excitation::Continuous => on_worker(|| continuous(records, &infos, &mut ctx)),
         _ => chirp(records, &infos, &mut ctx),
     }
 }
@@ -538,13 +537,13 @@ fn transform(
 /// The half spectra of one segment: every input force and output response, in an
 /// accumulator's order.
 #[derive(Default)]
-pub(crate) struct Spectra {
+struct Spectra {
     fs: Vec<Vec<Complex64>>,
     ys: Vec<Vec<Complex64>>,
 }
 
 impl Spectra {
-    pub(crate) fn new(inputs: usize, outputs: usize) -> Self {
+    fn new(inputs: usize, outputs: usize) -> Self {
         Spectra {
             fs: vec![Vec::new(); inputs],
             ys: vec![Vec::new(); outputs],
@@ -1077,6 +1076,13 @@ fn welch_estimate(accs: Vec<Accumulator>, n: usize, ctx: &mut Ctx) -> Result<Frf
         ctx.opts.overlap * 100.0
     );
     assemble(accs, n, ctx, method, None)
+}
+
+/// Runs `f` on a worker of the current rayon pool (on the calling thread when it is
+/// one): the Welch batches' parallel parts inside then fork there, instead of handing
+/// each one to the pool from outside and waiting for it.
+fn on_worker<R: Send>(f: impl FnOnce() -> R + Send) -> R {
+    rayon::scope(|_| f())
 }
 
 /// Streams records segment by segment into per-group accumulators.

@@ -15,9 +15,9 @@
 //! exactly as in memory.
 
 use super::{
-    check_averages, check_options, check_responses, groups, impulsive, n_lines, resolve_excitation,
-    to_displacement, too_short_for_segment, welch_estimate, welch_length, welch_segments,
-    Accumulator, Ctx, Excitation, FrfEstimate, FrfOptions, RecordInfo, Welch,
+    check_averages, check_options, check_responses, groups, impulsive, n_lines, on_worker,
+    resolve_excitation, to_displacement, too_short_for_segment, welch_estimate, welch_length,
+    welch_segments, Accumulator, Ctx, Excitation, FrfEstimate, FrfOptions, RecordInfo, Welch,
 };
 use crate::error::{Error, Result};
 use crate::read::{RecordScan, RowReader};
@@ -53,6 +53,10 @@ pub fn excitation_of_scan(scan: &RecordScan, opts: &FrfOptions) -> Result<Excita
 /// [`excitation_of_scan`]), and with [`Error::BadFile`] when the file no longer matches
 /// its scan.
 pub fn estimate_frf_streamed(scan: &RecordScan, opts: &FrfOptions) -> Result<FrfEstimate> {
+    on_worker(|| streamed(scan, opts))
+}
+
+fn streamed(scan: &RecordScan, opts: &FrfOptions) -> Result<FrfEstimate> {
     check_options(opts)?;
     let excitation = excitation_of_scan(scan, opts)?;
     if excitation != Excitation::Continuous {
