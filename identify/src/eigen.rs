@@ -193,24 +193,38 @@ pub(crate) fn hqr(n: usize, h: &mut [f64]) -> Option<Vec<Complex64>> {
                             z = r / s;
                             q /= p;
                             r /= p;
-                            for j in k..=nn {
-                                let mut pp = h[ix(k, j)] + q * h[ix(k + 1, j)];
-                                if k != nn - 1 {
-                                    pp += r * h[ix(k + 2, j)];
-                                    h[ix(k + 2, j)] -= pp * z;
+                            // rows k, k+1 (and k+2), columns k..=nn
+                            let (row_k, rest) = h[ix(k, 1)..].split_at_mut(n);
+                            let (row_k1, rest) = rest.split_at_mut(n);
+                            let cols = k - 1..nn;
+                            let pair = row_k[cols.clone()]
+                                .iter_mut()
+                                .zip(&mut row_k1[cols.clone()]);
+                            if k != nn - 1 {
+                                for ((a, b), c) in pair.zip(&mut rest[cols]) {
+                                    let pp = *a + q * *b + r * *c;
+                                    *c -= pp * z;
+                                    *b -= pp * y;
+                                    *a -= pp * x;
                                 }
-                                h[ix(k + 1, j)] -= pp * y;
-                                h[ix(k, j)] -= pp * x;
+                            } else {
+                                for (a, b) in pair {
+                                    let pp = *a + q * *b;
+                                    *b -= pp * y;
+                                    *a -= pp * x;
+                                }
                             }
-                            let mmin = nn.min(k + 3);
-                            for i in l..=mmin {
-                                let mut pp = x * h[ix(i, k)] + y * h[ix(i, k + 1)];
-                                if k != nn - 1 {
-                                    pp += z * h[ix(i, k + 2)];
-                                    h[ix(i, k + 2)] -= pp * r;
+                            // columns k, k+1 (and k+2), rows l..=min(nn, k+3)
+                            let width = if k != nn - 1 { 3 } else { 2 };
+                            for i in l..=nn.min(k + 3) {
+                                let c = &mut h[ix(i, k)..ix(i, k) + width];
+                                let mut pp = x * c[0] + y * c[1];
+                                if width == 3 {
+                                    pp += z * c[2];
+                                    c[2] -= pp * r;
                                 }
-                                h[ix(i, k + 1)] -= pp * q;
-                                h[ix(i, k)] -= pp;
+                                c[1] -= pp * q;
+                                c[0] -= pp;
                             }
                         }
                         k += 1;
