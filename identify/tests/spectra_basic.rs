@@ -20,7 +20,8 @@ fn naive_dft(x: &[f64]) -> Vec<Complex64> {
             x.iter()
                 .enumerate()
                 .map(|(i, &v)| {
-                    v * Complex64::from_polar(1.0, -2.0 * PI * (k * i) as f64 / n as f64)
+                    // k·i reduced modulo n: the same angle, exact at any size
+                    v * Complex64::from_polar(1.0, -2.0 * PI * ((k * i) % n) as f64 / n as f64)
                 })
                 .sum()
         })
@@ -89,7 +90,19 @@ fn test_signals(len: usize, seed: u64) -> (Vec<f64>, Vec<f64>) {
 #[test]
 fn welch_matches_naive_definition() {
     let dt = 1e-3;
-    for (n, len) in [(64, 1000), (97, 1009), (100, 777), (128, 129), (31, 500)] {
+    // 4099 and 4100 points: 2049 lines, one past a chunk of the parallel accumulation;
+    // 4097: 2048 lines, exactly one chunk
+    let sizes = [
+        (64, 1000),
+        (97, 1009),
+        (100, 777),
+        (128, 129),
+        (31, 500),
+        (4099, 8300),
+        (4100, 9000),
+        (4097, 6200),
+    ];
+    for (n, len) in sizes {
         let (f, y) = test_signals(len, n as u64);
         let naive = naive_welch(&f, &y, n);
         for (e, est) in [Estimator::H1, Estimator::H2, Estimator::Hv]
