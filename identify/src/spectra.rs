@@ -980,6 +980,10 @@ fn welch_length(lens: &[usize], opts: &FrfOptions) -> Result<usize> {
     }
 }
 
+/// The spectra a batch of Welch segments may hold, in bytes (a segment larger than this
+/// is transformed alone).
+const BATCH_BYTES: usize = 64 << 20;
+
 /// The Welch core shared by the in-memory and the streamed estimate: window, planned
 /// DFT and the spectra of a batch of segments.
 ///
@@ -1001,10 +1005,14 @@ impl Welch {
         }
     }
 
-    /// Segments per batch for an estimate in memory: one per thread (more only adds
-    /// spectra that no longer fit the cores' caches).
-    fn batch() -> usize {
-        rayon::current_num_threads()
+    /// Segments per batch for an estimate in memory of `channels` forces and responses:
+    /// one per thread (more only adds spectra that no longer fit the cores' caches), as
+    /// many as [`BATCH_BYTES`] of spectra allow, at least one.
+    fn batch(n: usize, channels: usize) -> usize {
+        let per_segment = channels * (n / 2 + 1) * std::mem::size_of::<Complex64>();
+        (rayon::current_num_threads())
+            .min(BATCH_BYTES / per_segment.max(1))
+            .max(1)
     }
 
     /// Windows and transforms a batch of segments and adds them to `acc` in order. Each
@@ -1035,7 +1043,12 @@ impl Welch {
                 buf.resize(window.len(), 0.0);
                 scratch.resize(plan.get_scratch_len(), Complex64::default());
                 fill_windowed(buf, x, window);
-                transform(plan, buf, dst, scratch, scale)
+                let done = transform(plan, buf, dst, scratch, scale);
+                if window.len() > PLAN_CACHE_MAX_LEN {
+                    // kept per thread only up to the cached plans' length
+                    (*buf, *scratch) = (Vec::new(), Vec::new());
+                }
+                done
             })
         })?;
         acc.add(&self.spectra[..segments.len()]);
@@ -1104,7 +1117,7 @@ fn continuous(records: &[TimeSeries], infos: &[RecordInfo], ctx: &mut Ctx) -> Re
                 continue;
             }
             let starts: Vec<usize> = (0..count).map(|s| s * hop).collect();
-            for batch in starts.chunks(Welch::batch()) {
+            for batch in starts.chunks(Welch::batch(n, inputs.len() + outputs.len())) {
                 let segments: Vec<Vec<&[f64]>> = batch
                     .iter()
                     .map(|&s| {
@@ -1212,6 +1225,39 @@ mod tests {
         assert_eq!(hann_kept(long).len(), long);
         assert!(PLANS.with_borrow(|c| c.iter().all(|(n, _)| *n <= PLAN_CACHE_MAX_LEN)));
         assert!(WINDOWS.with_borrow(|c| c.iter().all(|(n, _)| *n <= PLAN_CACHE_MAX_LEN)));
+    }
+
+    #[test]
+    fn welch_batches_and_buffers_stay_bounded() {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(4)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            assert_eq!(Welch::batch(4096, 3), 4, "one segment per thread");
+            // 4 channels of 2^22 points: 134 MB of spectra a segment, more than a batch
+            assert_eq!(Welch::batch(1 << 22, 4), 1);
+            // 2^19 points: 16.8 MB a segment, three fit in a batch
+            assert_eq!(Welch::batch(1 << 19, 4), 3);
+        });
+        // a transform longer than the cached plans leaves no buffer behind
+        let one = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap();
+        for (n, kept) in [(1024, true), (PLAN_CACHE_MAX_LEN + 2, false)] {
+            let x = vec![1.0; n];
+            let held = one.install(|| {
+                let mut welch = Welch::new(n);
+                let mut acc = Accumulator::new(vec![Axis::X], vec![Axis::X], n_lines(n));
+                welch
+                    .add_segments(&mut acc, None, 1, &[vec![&x[..], &x[..]]])
+                    .unwrap();
+                assert_eq!(acc.averages, 1);
+                BUFFERS.with_borrow(|(b, s)| b.capacity() + s.capacity())
+            });
+            assert_eq!(held > 0, kept, "n {n}: {held} buffer elements held");
+        }
     }
 
     #[test]
