@@ -151,9 +151,9 @@ fn case_a(dir: &Path, machine: &ModalMachine) -> Res<Value> {
     write_timeseries(&ts, &rec)?;
     let opts = FrfOptions::default();
     let est = estimate_frf(std::slice::from_ref(&rec), &opts)?;
-    let ms = median_ms(5, || estimate_frf(std::slice::from_ref(&rec), &opts));
+    let ms = median_ms(31, || estimate_frf(std::slice::from_ref(&rec), &opts));
     // the segments' FFTs and the line chunks of the spectra on every core
-    let ms_all_cores = on_all_cores(5, || estimate_frf(std::slice::from_ref(&rec), &opts))?;
+    let ms_all_cores = on_all_cores(31, || estimate_frf(std::slice::from_ref(&rec), &opts))?;
     let truth = input_channels(
         machine.frf_at(pose, &est.frf.freqs_hz, &[Axis::X, Axis::Y]),
         Axis::X,
