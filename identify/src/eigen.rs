@@ -284,13 +284,8 @@ mod tests {
 
     #[test]
     fn hqr_matches_nalgebra() {
-        let mut seed = 12345u64;
-        let mut rnd = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((seed >> 11) as f64 / (1u64 << 53) as f64) - 0.5
-        };
+        let mut lcg = crate::test_util::Lcg(12345);
+        let mut rnd = || lcg.uniform();
         for n in [1, 2, 3, 5, 8, 13, 16, 31, 64] {
             let a: Vec<f64> = (0..n * n).map(|_| rnd()).collect();
             let mine = eigenvalues(n, &a).unwrap();

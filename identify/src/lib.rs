@@ -54,6 +54,8 @@ pub mod refit;
 pub mod simulate;
 pub mod spectra;
 pub mod stabilization;
+#[cfg(test)]
+mod test_util;
 pub mod timeseries;
 pub mod twin;
 pub mod uff;

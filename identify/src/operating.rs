@@ -219,13 +219,8 @@ mod tests {
     #[test]
     fn mimo_h1_recovers_two_fir_paths() {
         let n = 1 << 15;
-        let mut seed = 12345u64;
-        let mut rnd = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((seed >> 11) as f64 / (1u64 << 53) as f64) - 0.5
-        };
+        let mut lcg = crate::test_util::Lcg(12345);
+        let mut rnd = || lcg.uniform();
         let f1: Vec<f64> = (0..n).map(|_| rnd()).collect();
         let f2: Vec<f64> = (0..n).map(|_| rnd() + 0.3 * rnd()).collect();
         let h1 = [0.5, 0.25, -0.1];

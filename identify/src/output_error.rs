@@ -889,15 +889,8 @@ mod tests {
         let fs = 1000.0;
         let n = 60_000;
         // white force, then the exact response through the zero-padded spectrum
-        let mut state = 12345u64;
-        let f: Vec<f64> = (0..n)
-            .map(|_| {
-                state = state
-                    .wrapping_mul(6364136223846793005)
-                    .wrapping_add(1442695040888963407);
-                ((state >> 11) as f64 / (1u64 << 53) as f64) - 0.5
-            })
-            .collect();
+        let mut lcg = crate::test_util::Lcg(12345);
+        let f: Vec<f64> = (0..n).map(|_| lcg.uniform()).collect();
         let m = fast_len(2 * n);
         let mut planner = RealFftPlanner::<f64>::new();
         let fwd = planner.plan_fft_forward(m);

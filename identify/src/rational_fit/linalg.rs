@@ -229,13 +229,8 @@ mod tests {
     use super::*;
 
     fn tall(rows: usize, cols: usize, seed: u64) -> DMatrix<f64> {
-        let mut st = seed;
-        DMatrix::from_fn(rows, cols, |_, j| {
-            st = st
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((st >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 10f64.powi(j as i32 % 4)
-        })
+        let mut lcg = crate::test_util::Lcg(seed);
+        DMatrix::from_fn(rows, cols, |_, j| lcg.uniform() * 10f64.powi(j as i32 % 4))
     }
 
     #[test]
