@@ -250,8 +250,19 @@ pub(crate) fn eigenvalues(n: usize, a: &[f64]) -> Option<Vec<Complex64>> {
 /// All eigenvalues of a general real matrix: Householder Hessenberg reduction
 /// (nalgebra) and [`hqr`].
 pub(crate) fn matrix_eigenvalues(m: DMatrix<f64>) -> Option<Vec<Complex64>> {
-    let n = m.nrows();
+    hqr_of(&nalgebra::linalg::Hessenberg::new(m).unpack_h())
+}
+
+/// [`matrix_eigenvalues`], or nalgebra's Schur iteration on the same Hessenberg form when
+/// [`hqr`] does not converge.
+pub(crate) fn eigenvalues_or_schur(m: DMatrix<f64>) -> Vec<Complex64> {
     let hm = nalgebra::linalg::Hessenberg::new(m).unpack_h();
+    hqr_of(&hm).unwrap_or_else(|| hm.complex_eigenvalues().iter().copied().collect())
+}
+
+/// [`hqr`] of an upper Hessenberg matrix (entries below the subdiagonal ignored).
+fn hqr_of(hm: &DMatrix<f64>) -> Option<Vec<Complex64>> {
+    let n = hm.nrows();
     let mut h = vec![0.0; n * n];
     for i in 0..n {
         for j in i.saturating_sub(1)..n {
@@ -264,8 +275,18 @@ pub(crate) fn matrix_eigenvalues(m: DMatrix<f64>) -> Option<Vec<Complex64>> {
 /// Roots of the monic polynomial `zⁿ + c[0] zⁿ⁻¹ + … + c[n−1]` as the eigenvalues of its
 /// companion matrix (first row `−c`, ones below the diagonal), balanced first as LAPACK's
 /// `dgeev` (numpy and MATLAB `roots`) does; a diagonal similarity keeps the Hessenberg
-/// form. `None` if the iteration does not converge.
-pub(crate) fn companion_roots(c: &[f64]) -> Option<Vec<Complex64>> {
+/// form. Should [`hqr`] not converge, nalgebra's Schur iteration on the same matrix.
+pub(crate) fn companion_roots(c: &[f64]) -> Vec<Complex64> {
+    let n = c.len();
+    let mut h = balanced_companion(c);
+    hqr(n, &mut h).unwrap_or_else(|| {
+        let m = DMatrix::from_row_slice(n, n, &balanced_companion(c));
+        m.complex_eigenvalues().iter().copied().collect()
+    })
+}
+
+/// The balanced companion matrix of [`companion_roots`], row-major.
+fn balanced_companion(c: &[f64]) -> Vec<f64> {
     let n = c.len();
     let mut h = vec![0.0; n * n];
     for (j, cj) in c.iter().enumerate() {
@@ -275,7 +296,7 @@ pub(crate) fn companion_roots(c: &[f64]) -> Option<Vec<Complex64>> {
         h[i * n + i - 1] = 1.0;
     }
     balance(n, &mut h);
-    hqr(n, &mut h)
+    h
 }
 
 #[cfg(test)]
@@ -351,7 +372,7 @@ mod tests {
                 })
                 .fold(0.0, f64::max)
         };
-        let mine = companion_roots(&c).unwrap();
+        let mine = companion_roots(&c);
         assert_eq!(mine.len(), 40);
         let theirs: Vec<Complex64> = companion(&c)
             .complex_eigenvalues()
@@ -369,7 +390,7 @@ mod tests {
         );
         for c in [vec![2.0, -3.0, 1e-6], vec![0.0, 0.0, -1.0], vec![1e8, 1.0]] {
             let theirs = companion(&c).complex_eigenvalues();
-            let mine = companion_roots(&c).unwrap();
+            let mine = companion_roots(&c);
             for e in theirs.iter() {
                 let d = mine
                     .iter()

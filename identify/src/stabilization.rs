@@ -143,18 +143,7 @@ pub fn poly_roots(coeffs: &[f64]) -> Vec<Complex64> {
         return Vec::new();
     }
     let monic: Vec<f64> = c[1..].iter().map(|v| v / c[0]).collect();
-    if let Some(r) = eigen::companion_roots(&monic) {
-        return r;
-    }
-    // hqr did not converge: nalgebra's Schur iteration on the same matrix
-    let mut m = DMatrix::<f64>::zeros(n, n);
-    for j in 0..n {
-        m[(0, j)] = -monic[j];
-    }
-    for i in 1..n {
-        m[(i, i - 1)] = 1.0;
-    }
-    m.complex_eigenvalues().iter().copied().collect()
+    eigen::companion_roots(&monic)
 }
 
 /// Computes the pLSCF stabilization diagram of `frf` (all channels share the poles).

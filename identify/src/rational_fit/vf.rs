@@ -337,10 +337,7 @@ fn step(p: &Prepared, poles: &[Complex64]) -> Option<Vec<Complex64>> {
     if h.iter().any(|v| !v.is_finite()) {
         return None;
     }
-    let eig = match crate::eigen::matrix_eigenvalues(h.clone()) {
-        Some(e) => e,
-        None => h.complex_eigenvalues().iter().copied().collect(),
-    };
+    let eig = crate::eigen::eigenvalues_or_schur(h);
     let mut out: Vec<Complex64> = Vec::with_capacity(poles.len());
     for z in eig.iter() {
         if z.im < 0.0 {
