@@ -6,6 +6,7 @@ use crate::error::{Error, Result};
 use crate::frf::{fit_percent, Frf};
 use crate::interpolate::{Method, TwinEvaluator};
 use crate::model::ModalModel;
+use crate::plan::{campaign_exclusions, plan_pose, select_channels, EstimateFacts, PosePlan};
 use crate::rational_fit::{fit_frf, refine_from, FitOptions, Weighting};
 use crate::spectra::{estimate_frf, FrfOptions};
 use crate::stabilization::StabilizationDiagram;
@@ -97,6 +98,10 @@ pub struct CampaignResult {
 struct PoseFit {
     pose: [f64; 3],
     frf: Frf,
+    /// `frf` with the channels the plan uses (what the fit saw).
+    fitted: Frf,
+    plan: PosePlan,
+    options: FitOptions,
     model: ModalModel,
     order: OrderInfo,
     sigma: Option<f64>,
@@ -105,11 +110,69 @@ struct PoseFit {
     diagram: StabilizationDiagram,
 }
 
+/// Below this fit \[%\] of a channel against its measured FRF in the band, the campaign
+/// tries the alternative fits (inverse-variance weighting, a deeper stabilization
+/// diagram) and keeps the best.
+pub const TRY_ALTERNATIVES_BELOW: f64 = 97.0;
+/// Below this fit \[%\] of a channel against its measured FRF in the band, identify
+/// warns loudly (pose, channel, number, what to try).
+pub const QUALITY_WARNING_BELOW: f64 = 90.0;
+
 fn band_of(frf: &Frf, opts: &FitOptions) -> (f64, f64) {
     let lo = frf.freqs_hz.first().copied().unwrap_or(0.0);
     let hi = frf.freqs_hz.last().copied().unwrap_or(0.0);
     opts.band_hz
         .map_or((lo, hi), |(a, b)| (a.max(lo), b.min(hi)))
+}
+
+/// Per-channel fit of `model` against `frf` within `band`, averaged over the octaves of
+/// the band (each octave's own fit, the last one extended to the band's end): every part
+/// of the band counts alike, whatever the FRF's dynamic range (a receptance from an
+/// accelerometer spans decades, and one fit over the whole band only sees its low end).
+pub fn octave_fits(model: &ModalModel, frf: &Frf, band: (f64, f64)) -> Vec<ChannelFit> {
+    let lo = band.0.max(
+        frf.freqs_hz
+            .iter()
+            .copied()
+            .find(|f| *f > 0.0)
+            .unwrap_or(1.0),
+    );
+    let mut edges = vec![lo];
+    while edges.last().copied().unwrap_or(lo) * 2.0 < band.1 {
+        let e = edges.last().copied().unwrap_or(lo) * 2.0;
+        edges.push(e);
+    }
+    if edges.len() > 1 && band.1 / edges.last().copied().unwrap_or(lo) < 1.5 {
+        edges.pop();
+    }
+    edges.push(band.1);
+    let parts: Vec<Vec<ChannelFit>> = edges
+        .windows(2)
+        .map(|e| channel_fits(model, frf, (e[0], e[1])))
+        .filter(|f| !f.is_empty())
+        .collect();
+    let Some(first) = parts.first() else {
+        return Vec::new();
+    };
+    first
+        .iter()
+        .enumerate()
+        .map(|(ci, c)| {
+            let v: Vec<f64> = parts
+                .iter()
+                .filter_map(|p| p.get(ci).map(|x| x.fit_pct))
+                .filter(|x| x.is_finite())
+                .collect();
+            ChannelFit {
+                channel: c.channel,
+                fit_pct: if v.is_empty() {
+                    f64::NAN
+                } else {
+                    v.iter().sum::<f64>() / v.len() as f64
+                },
+            }
+        })
+        .collect()
 }
 
 /// Per-channel fit of `model` against `frf` within `band`.
@@ -142,6 +205,9 @@ pub struct MeasuredFrf {
     pub sources: Vec<String>,
     /// Warnings from its estimation.
     pub warnings: Vec<String>,
+    /// What the estimate says about the excitation (band, averages, estimator), for the
+    /// plan ([`crate::plan`]).
+    pub facts: EstimateFacts,
 }
 
 /// Identifies a twin from a measurement campaign (one or many poses).
@@ -162,6 +228,11 @@ pub fn identify_campaign(
             let recs: Vec<TimeSeries> = g.records.iter().map(|&i| records[i].clone()).collect();
             let est = estimate_frf(&recs, &opts.frf)?;
             Ok(MeasuredFrf {
+                facts: EstimateFacts {
+                    excitation_band_hz: est.excitation_band_hz,
+                    averages: Some(est.hits_used),
+                    method: est.method.clone(),
+                },
                 pose: g.pose,
                 frf: est.frf,
                 exp_window_sigma: est.exp_window_sigma,
@@ -214,31 +285,27 @@ pub fn identify_frfs(
     let n_sources: usize = measured.iter().map(|m| m.sources.len()).sum();
     let all_sources: Vec<String> = measured.iter().flat_map(|m| m.sources.clone()).collect();
     let done = std::sync::atomic::AtomicUsize::new(0);
+    // the plan: band and channels per pose, channels decided over the campaign
+    let first: Vec<PosePlan> = measured
+        .iter()
+        .map(|m| plan_pose(&m.frf, &m.facts, opts.fit.band_hz, &[]))
+        .collect();
+    let excluded = campaign_exclusions(&first);
     let fits: Vec<Result<PoseFit>> = measured
         .into_par_iter()
         .map(|m| {
-            let mut res = fit_frf(&m.frf, &opts.fit).map_err(|e| match e {
-                Error::Numerical(msg) => Error::Numerical(format!("pose {:?}: {msg}", m.pose)),
-                other => other,
-            })?;
-            if opts.try_ml_weighting && opts.fit.weighting == Weighting::Coherence {
-                let ml = FitOptions {
-                    weighting: Weighting::InverseVariance,
-                    ..opts.fit.clone()
-                };
-                if let Ok(alt) = fit_frf(&m.frf, &ml) {
-                    let band = band_of(&m.frf, &opts.fit);
-                    let score = |r: &crate::rational_fit::FitResult| {
-                        mean_fit(&channel_fits(&r.model, &m.frf, band))
-                    };
-                    if score(&alt) > score(&res) {
-                        res = alt;
-                    }
-                }
-            }
+            let plan = plan_pose(&m.frf, &m.facts, opts.fit.band_hz, &excluded);
+            let fitted = select_channels(&m.frf, &plan.used_channels());
+            let options = FitOptions {
+                band_hz: Some((plan.band_hz[0], plan.band_hz[1])),
+                ..opts.fit.clone()
+            };
+            let (res, plan) = fit_pose(&fitted, &options, plan, opts, m.pose)?;
             let mut model = res.model;
+            let mut warnings = m.warnings;
             if let Some(s) = m.exp_window_sigma {
                 model.shift_poles(s);
+                warnings.extend(repair_window_damping(&mut model, s));
             }
             let n = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
             progress(n, total);
@@ -250,10 +317,13 @@ pub fn identify_frfs(
                     stable_freqs_hz: res.diagram.stable_freqs_hz(),
                 },
                 frf: m.frf,
+                fitted,
+                plan,
+                options,
                 model,
                 sigma: m.exp_window_sigma,
                 sources: m.sources,
-                warnings: m.warnings,
+                warnings,
                 diagram: res.diagram,
             })
         })
@@ -273,20 +343,24 @@ pub fn identify_frfs(
         })
         .collect();
     if fits.len() > 1 {
-        warnings.extend(track_modes(&mut fits, opts)?);
+        warnings.extend(track_modes(&mut fits)?);
     }
     let diagrams: Vec<StabilizationDiagram> = fits.iter().map(|f| f.diagram.clone()).collect();
     let poses: Vec<PoseModel> = fits
         .into_iter()
-        .map(|f| {
-            let band = band_of(&f.frf, &opts.fit);
+        .map(|mut f| {
+            let band = band_of(&f.frf, &f.options);
             let mut windowed = f.model.clone();
             if let Some(s) = f.sigma {
                 windowed.shift_poles(-s);
             }
+            let fit = channel_fits(&windowed, &f.frf, band);
+            f.plan.quality_warnings = quality_warnings(f.pose, &fit, band);
+            warnings.extend(f.plan.quality_warnings.iter().cloned());
             PoseModel {
                 pose: f.pose,
-                fit: channel_fits(&windowed, &f.frf, band),
+                fit,
+                plan: Some(f.plan),
                 band_hz: [band.0, band.1],
                 model: f.model,
                 frf: f.frf,
@@ -297,7 +371,7 @@ pub fn identify_frfs(
         })
         .collect();
     let mut twin = Twin::new(&opts.name, poses);
-    twin.interpolation = interpolation_info(&twin, opts)?;
+    twin.interpolation = interpolation_info(&twin)?;
     twin.history.push(HistoryEntry {
         unix_time: now_unix(),
         kind: "identify".into(),
@@ -383,7 +457,7 @@ pub fn match_modes(reference: &ModalModel, m: &ModalModel) -> ModalModel {
 /// matching mode of the pose's own fit when that lies within 20 % in frequency:
 /// continuity of frequency, damping and residues), then on from there (Prim's order),
 /// so "mode 2" means the same physical mode everywhere.
-fn track_modes(fits: &mut [PoseFit], opts: &CampaignOptions) -> Result<Vec<String>> {
+fn track_modes(fits: &mut [PoseFit]) -> Result<Vec<String>> {
     let mut warnings = Vec::new();
     let n = fits.len();
     let mut counts: Vec<usize> = fits.iter().map(|f| f.model.modes.len()).collect();
@@ -436,9 +510,9 @@ fn track_modes(fits: &mut [PoseFit], opts: &CampaignOptions) -> Result<Vec<Strin
         if let Some(s) = fits[i].sigma {
             start.shift_poles(-s);
         }
-        let w = crate::rational_fit::weights(&fits[i].frf, &opts.fit);
-        let mut refined = refine_from(&start, &fits[i].frf, &w, &opts.fit)?;
-        let band = band_of(&fits[i].frf, &opts.fit);
+        let w = crate::rational_fit::weights(&fits[i].fitted, &fits[i].options);
+        let mut refined = refine_from(&start, &fits[i].fitted, &w, &fits[i].options)?;
+        let band = band_of(&fits[i].frf, &fits[i].options);
         let own = {
             let mut own = fits[i].model.clone();
             if let Some(s) = fits[i].sigma {
@@ -461,6 +535,11 @@ fn track_modes(fits: &mut [PoseFit], opts: &CampaignOptions) -> Result<Vec<Strin
         }
         if let Some(s) = fits[i].sigma {
             refined.shift_poles(s);
+            warnings.extend(
+                repair_window_damping(&mut refined, s)
+                    .into_iter()
+                    .map(|w| format!("pose {:?}: {w}", fits[i].pose)),
+            );
         }
         let refined = if own_is_better {
             match_modes(&fits[j].model, &fits[i].model)
@@ -474,6 +553,157 @@ fn track_modes(fits: &mut [PoseFit], opts: &CampaignOptions) -> Result<Vec<Strin
     Ok(warnings)
 }
 
+/// The first fit of a pose, then the alternatives when a channel fits its measured FRF
+/// worse than [`TRY_ALTERNATIVES_BELOW`]: the inverse-variance weighting (when the
+/// campaign allows it) and a deeper stabilization diagram (orders up to 128, no early
+/// stop), each also with the other weighting; the best mean channel fit in the band wins
+/// (an alternative must gain 0.2 points). The plan records what was tried.
+fn fit_pose(
+    frf: &Frf,
+    options: &FitOptions,
+    mut plan: PosePlan,
+    opts: &CampaignOptions,
+    pose: [f64; 3],
+) -> Result<(crate::rational_fit::FitResult, PosePlan)> {
+    let name = |o: &FitOptions| -> String {
+        format!(
+            "{} weighting, diagram orders up to {}",
+            match o.weighting {
+                Weighting::InverseVariance => "inverse-variance",
+                Weighting::Uniform => "uniform",
+                Weighting::Balanced => "balanced",
+                Weighting::Custom(_) => "custom",
+                Weighting::Coherence => "coherence",
+            },
+            o.stabilization.max_order
+        )
+    };
+    let band = band_of(frf, options);
+    let score = |r: &crate::rational_fit::FitResult| {
+        let f = octave_fits(&r.model, frf, band);
+        let worst = f.iter().map(|c| c.fit_pct).fold(f64::INFINITY, f64::min);
+        (mean_fit(&f), worst)
+    };
+    let mut best = fit_frf(frf, options).map_err(|e| match e {
+        Error::Numerical(msg) => Error::Numerical(format!("pose {pose:?}: {msg}")),
+        other => other,
+    })?;
+    let mut best_score = score(&best);
+    let mut best_name = name(options);
+    let mut candidates: Vec<FitOptions> = Vec::new();
+    let ml_allowed = opts.try_ml_weighting && options.weighting == Weighting::Coherence;
+    if ml_allowed {
+        candidates.push(FitOptions {
+            weighting: Weighting::InverseVariance,
+            ..options.clone()
+        });
+        candidates.push(FitOptions {
+            weighting: Weighting::Balanced,
+            ..options.clone()
+        });
+    }
+    let deep = |o: &FitOptions| {
+        let mut o = o.clone();
+        o.stabilization.max_order = o.stabilization.max_order.max(128);
+        o.stabilization.quiet_orders = 0;
+        o
+    };
+    let mut tried_deep = false;
+    let mut i = 0;
+    while i < candidates.len() || (!tried_deep && options.n_modes.is_none()) {
+        if i >= candidates.len() {
+            // the deeper diagram only when the fits so far leave a channel below target
+            tried_deep = true;
+            if best_score.1 >= TRY_ALTERNATIVES_BELOW {
+                break;
+            }
+            let n = candidates.len();
+            candidates.push(deep(options));
+            for k in 0..n {
+                let d = deep(&candidates[k]);
+                candidates.push(d);
+            }
+            continue;
+        }
+        let cand = &candidates[i];
+        i += 1;
+        match fit_frf(frf, cand) {
+            Ok(alt) => {
+                let s = score(&alt);
+                let better = s.0 > best_score.0 + 0.2;
+                plan.alternatives.push(format!(
+                    "{}: mean fit {:.2} %, worst channel {:.2} %, {} modes{}",
+                    name(cand),
+                    s.0,
+                    s.1,
+                    alt.model.modes.len(),
+                    if better { " (kept)" } else { "" }
+                ));
+                if better {
+                    best = alt;
+                    best_score = s;
+                    best_name = name(cand);
+                }
+            }
+            Err(e) => plan
+                .alternatives
+                .push(format!("{}: failed ({e})", name(cand))),
+        }
+    }
+    if !plan.alternatives.is_empty() {
+        plan.alternatives.insert(
+            0,
+            format!(
+                "kept: {best_name} (mean fit {:.2} %, worst channel {:.2} %)",
+                best_score.0, best_score.1
+            ),
+        );
+    }
+    Ok((best, plan))
+}
+
+/// Damping ratio given to a mode whose fitted damping was smaller than what the
+/// exponential window added (the unwindowed model would be unstable).
+pub const MIN_REPAIRED_DAMPING: f64 = 1e-4;
+
+/// After removing an exponential window's damping (`shift_poles(sigma)`), a mode whose
+/// fitted damping was within the window's own is unstable or undamped: its damping
+/// ratio becomes [`MIN_REPAIRED_DAMPING`], and a warning says so. The model stays
+/// loadable (`is_valid`).
+fn repair_window_damping(model: &mut ModalModel, sigma: f64) -> Vec<String> {
+    let mut out = Vec::new();
+    for m in &mut model.modes {
+        if !(m.zeta >= MIN_REPAIRED_DAMPING) && m.wn.is_finite() && m.wn > 0.0 {
+            out.push(format!(
+                "mode at {:.1} Hz: its fitted damping is within the exponential window's \
+                 ({:.3} %); set to {:.2} % (the data cannot tell it; use a longer record)",
+                m.wn / (2.0 * std::f64::consts::PI),
+                100.0 * sigma / m.wn,
+                100.0 * MIN_REPAIRED_DAMPING
+            ));
+            m.zeta = MIN_REPAIRED_DAMPING;
+        }
+    }
+    out
+}
+
+/// One warning per channel whose model fits its measured FRF in `band` worse than
+/// [`QUALITY_WARNING_BELOW`], saying what to try.
+fn quality_warnings(pose: [f64; 3], fit: &[ChannelFit], band: (f64, f64)) -> Vec<String> {
+    fit.iter()
+        .filter(|c| !(c.fit_pct >= QUALITY_WARNING_BELOW))
+        .map(|c| {
+            format!(
+                "POOR FIT at pose ({:.3}, {:.3}, {:.3}) m, channel {}: the model fits its own \
+                 measured FRF at {:.1} % in {:.0}-{:.0} Hz (target {QUALITY_WARNING_BELOW} %); \
+                 check that channel's coherence and band in the report, try --order with more \
+                 modes, --weighting ml, or narrow --fmin/--fmax to the modes of interest",
+                pose[0], pose[1], pose[2], c.channel, c.fit_pct, band.0, band.1
+            )
+        })
+        .collect()
+}
+
 fn mean_fit(f: &[ChannelFit]) -> f64 {
     if f.is_empty() {
         return f64::NAN;
@@ -482,7 +712,7 @@ fn mean_fit(f: &[ChannelFit]) -> f64 {
 }
 
 /// Method name and leave-one-pose-out figures of a twin's interpolation.
-pub fn interpolation_info(twin: &Twin, opts: &CampaignOptions) -> Result<InterpolationInfo> {
+pub fn interpolation_info(twin: &Twin) -> Result<InterpolationInfo> {
     let ev = TwinEvaluator::new(twin)?;
     let mut info = InterpolationInfo {
         method: match ev.method() {
@@ -510,7 +740,7 @@ pub fn interpolation_info(twin: &Twin, opts: &CampaignOptions) -> Result<Interpo
             if let Some(s) = p.frf_exp_window_sigma {
                 m.shift_poles(-s);
             }
-            let band = band_of(&p.frf, &opts.fit);
+            let band = (p.band_hz[0], p.band_hz[1]);
             info.leave_one_out.push(LooEntry {
                 pose: p.pose,
                 fit: channel_fits(&m, &p.frf, band),

@@ -830,6 +830,7 @@ fn cand_pose_dependence(
             },
             sources: recs.iter().map(|r| r.source.clone()).collect(),
             frf_exp_window_sigma: None,
+            plan: None,
         };
         let d = |q: &[f64; 3]| (0..3).map(|i| (q[i] - pose[i]).powi(2)).sum::<f64>().sqrt();
         match ext.poses.iter().position(|p| d(&p.pose) <= 1e-3) {

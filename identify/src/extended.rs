@@ -115,6 +115,7 @@ mod tests {
                 order: Default::default(),
                 sources: vec![],
                 frf_exp_window_sigma: None,
+                plan: None,
             }],
         )
     }

@@ -48,6 +48,7 @@ pub mod modal_update;
 pub mod model;
 pub mod operating;
 pub mod output_error;
+pub mod plan;
 pub mod rational_fit;
 pub mod read;
 pub mod refit;

@@ -80,6 +80,11 @@ pub enum Weighting {
     /// resonances far below the largest peak count as much as their noise allows.
     /// Uniform for channels without coherence.
     InverseVariance,
+    /// The coherence weight divided by the FRF's level around each line (its RMS over
+    /// ±1/6 octave), so every part of the band counts alike whatever the dynamic range
+    /// (receptance of an accelerometer test spans decades): a relative, near-logarithmic
+    /// error, with resonances still above their neighbourhood.
+    Balanced,
     /// Amplitude weight W per channel per line of the input FRF (≥ 0).
     Custom(Vec<Vec<f64>>),
 }

@@ -916,7 +916,7 @@ fn assemble(
         let top = keep as f64 * df;
         if hi < 0.9 * top {
             ctx.warnings.push(format!(
-                "the force is more than 20 dB below its peak outside {lo:.1}..{hi:.1} Hz; lines up to {top:.1} Hz outside that band are unreliable (set fmax)"
+                "the force is more than 20 dB below its peak outside {lo:.1}..{hi:.1} Hz; lines up to {top:.1} Hz outside that band are unreliable (identify's automatic band stops there)"
             ));
         }
     }

@@ -92,6 +92,10 @@ pub struct PoseModel {
     /// for it; the stored FRF is as windowed).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub frf_exp_window_sigma: Option<f64>,
+    /// The automatic decisions behind this pose's model (band, channels, excitation,
+    /// alternatives tried, quality warnings) with their evidence.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub plan: Option<crate::plan::PosePlan>,
 }
 
 /// A sinusoidal vibration from outside the machine, added to the response.
@@ -312,12 +316,16 @@ impl Twin {
         Twin::from_json(&text, path)
     }
 
-    /// Writes the twin atomically as pretty JSON.
+    /// Writes the twin atomically as pretty JSON, after checking that the loader accepts
+    /// exactly what is written (the text is read back and validated first): a twin that
+    /// [`Twin::load`] would refuse is never written, and the error names what is wrong.
     pub fn save(&self, path: &Path) -> Result<()> {
         let text = serde_json::to_string_pretty(self).map_err(|e| Error::Json {
             path: path.into(),
             source: e,
         })?;
+        Twin::from_json(&text, path)
+            .map_err(|e| Error::Numerical(format!("not written, the twin would not load: {e}")))?;
         write_atomic(path, text.as_bytes())
     }
 

@@ -205,6 +205,7 @@ fn paper_chain_k1_loss_time_update_beats_99_percent() {
             },
             sources: vec![],
             frf_exp_window_sigma: None,
+            plan: None,
         }],
     );
     let worn = chain.clone().with_k1_factor(0.9);

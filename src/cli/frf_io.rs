@@ -108,6 +108,7 @@ pub fn read_measured(path: &Path, a: &FrfInputArgs) -> Result<MeasuredFrf> {
         (frf, pose_comment(&text, path)?.or(a.pose))
     };
     Ok(MeasuredFrf {
+        facts: Default::default(),
         pose: pose.unwrap_or([0.0; 3]),
         frf,
         exp_window_sigma: None,

@@ -37,9 +37,11 @@ pub struct Args {
     /// Records within this distance \[m\] share a pose.
     #[arg(long, default_value_t = 1e-3)]
     pub pose_tol: f64,
-    /// Line weighting of the fit: auto (coherence weighting, and the inverse-variance fit
-    /// where that fits the measured FRF better), coherence, or ml (inverse variance).
-    #[arg(long, default_value = "auto", value_parser = ["auto", "coherence", "ml"])]
+    /// Line weighting of the fit: auto (coherence weighting; where a channel fits its
+    /// measured FRF worse than 97 %, also the inverse-variance and balanced weightings and
+    /// a deeper stabilization diagram, the best kept), coherence, ml (inverse variance) or
+    /// balanced (relative error: every part of the band counts alike).
+    #[arg(long, default_value = "auto", value_parser = ["auto", "coherence", "ml", "balanced"])]
     pub weighting: String,
     /// Also write an HTML report (FRFs, coherence, stabilization diagram, modes across
     /// the workspace) here.
@@ -76,14 +78,15 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
         fit: FitOptions {
             n_modes: a.order,
             band_hz: band,
-            weighting: if a.weighting == "ml" {
-                identify::rational_fit::Weighting::InverseVariance
-            } else {
-                identify::rational_fit::Weighting::Coherence
+            weighting: match a.weighting.as_str() {
+                "ml" => identify::rational_fit::Weighting::InverseVariance,
+                "balanced" => identify::rational_fit::Weighting::Balanced,
+                _ => identify::rational_fit::Weighting::Coherence,
             },
             ..FitOptions::default()
         },
         pose_tol_m: a.pose_tol,
+
         name: a.name.clone(),
         try_ml_weighting: a.weighting == "auto",
     };

@@ -211,6 +211,7 @@ impl ModalMachine {
                     },
                     sources: vec![],
                     frf_exp_window_sigma: None,
+                    plan: None,
                 }
             })
             .collect();

@@ -33,6 +33,35 @@ pub(crate) struct Prepared {
 
 /// Largest coherence that still raises the weight; above it every line counts fully.
 const COH_CLIP: f64 = 0.99;
+/// Half-width in octaves of the neighbourhood whose RMS level divides the balanced weight.
+const BALANCE_OCTAVES: f64 = 1.0 / 6.0;
+
+/// RMS of `|h|` over the lines within ±`octaves` of each line (two pointers over the
+/// sorted frequencies, prefix sums of `|h|²`).
+pub(crate) fn local_level(freqs: &[f64], h: &[Complex64], octaves: f64) -> Vec<f64> {
+    let r = 2f64.powf(octaves);
+    let mut pre = Vec::with_capacity(h.len() + 1);
+    pre.push(0.0);
+    for v in h {
+        let last = *pre.last().unwrap_or(&0.0);
+        pre.push(last + v.norm_sqr());
+    }
+    let (mut a, mut b) = (0usize, 0usize);
+    freqs
+        .iter()
+        .map(|&f| {
+            while a < freqs.len() && freqs[a] < f / r {
+                a += 1;
+            }
+            while b < freqs.len() && freqs[b] <= f * r {
+                b += 1;
+            }
+            let n = (b - a).max(1) as f64;
+            ((pre[b] - pre[a]) / n).max(0.0).sqrt()
+        })
+        .collect()
+}
+
 /// Largest coherence used by the inverse-variance weight.
 const IV_CLIP: f64 = 0.9999;
 
@@ -284,7 +313,7 @@ pub(crate) fn full_weights(
                     })
                     .collect()
             }
-            (None, Weighting::Coherence, Some(g)) => g
+            (None, Weighting::Coherence | Weighting::Balanced, Some(g)) => g
                 .iter()
                 .map(|&g| {
                     let g = g.clamp(0.0, COH_CLIP);
@@ -293,6 +322,13 @@ pub(crate) fn full_weights(
                 .collect(),
             _ => vec![1.0; nf],
         };
+        if custom.is_none() && opts.weighting == Weighting::Balanced {
+            let level = local_level(&frf.freqs_hz, &ch.h, BALANCE_OCTAVES);
+            let top = level.iter().cloned().fold(0.0, f64::max);
+            for (w, l) in w.iter_mut().zip(&level) {
+                *w = if *l > 1e-12 * top { *w / l } else { 0.0 };
+            }
+        }
         if let Some(g) = &ch.coherence {
             for (w, g) in w.iter_mut().zip(g) {
                 if *g < opts.min_coherence || !g.is_finite() {

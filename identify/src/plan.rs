@@ -1,0 +1,359 @@
+//! The automatic decisions between the FRF estimate and the fit, made from the data and
+//! kept with their evidence: which band is trustworthy, which channels carry a coherent
+//! response, what excitation was recognised. The campaign fits what the plan says, and
+//! the summary, the report and the twin file print it.
+//!
+//! * **Band.** Start from the lines the FRF has; keep the range where the force
+//!   auto-spectrum is within 20 dB of its peak (the estimate reports it); then trim each
+//!   end to where the coherence of the used channels (the largest per line, smoothed over
+//!   ±1/12 octave) reaches the *trust level* `max(0.8, min(0.95, 1/(1 + 30·NSR)))`, with `NSR` the
+//!   median noise-to-signal ratio `(1−γ²)/γ²` of the band: the band ends where the
+//!   estimate is 30 times noisier than it typically is, but never demands more than
+//!   γ² = 0.95 nor accepts less than 0.8. `--fmin/--fmax` only narrow the result.
+//! * **Channels.** With `n` averages, the coherence of a channel without any response
+//!   to the force exceeds `x = 1 − 0.01^{1/(n−1)}` on 1 % of the lines (γ² of pure noise
+//!   is Beta(1, n−1) distributed). A channel whose coherence exceeds `x` on fewer than
+//!   [`MIN_INFORMATIVE_FRACTION`] of the band's lines carries no information: it is kept
+//!   out of the fit (it cannot steer the common poles) and reported as not identified.
+//!   Without coherence (measured FRF files, one full-record DFT) every channel is used.
+
+use crate::axis::Channel;
+use crate::frf::Frf;
+use serde::{Deserialize, Serialize};
+
+/// A channel is informative when its coherence is significant on at least this fraction
+/// of the band's lines.
+pub const MIN_INFORMATIVE_FRACTION: f64 = 0.2;
+/// Coherence below which a band edge is never trusted.
+pub const MIN_TRUST_COHERENCE: f64 = 0.8;
+/// Coherence at which a band edge is always trusted (1 % noise-to-signal per average:
+/// very clean data must not lose a mode at its band edge to a strict relative rule).
+pub const MAX_TRUST_COHERENCE: f64 = 0.95;
+/// A band edge is trusted while its noise-to-signal ratio stays within this factor of
+/// the band's median.
+pub const NSR_FACTOR: f64 = 30.0;
+
+/// The decision about one channel.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ChannelDecision {
+    /// The channel.
+    pub channel: Channel,
+    /// Fitted (true) or left out as noise (false).
+    pub used: bool,
+    /// Fraction of the band's lines whose coherence is significant (when judged).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub significant_fraction: Option<f64>,
+    /// Why.
+    pub reason: String,
+}
+
+/// The plan of one pose: what the fit will use, with the evidence.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct PosePlan {
+    /// Excitation recognised and the estimator used.
+    pub excitation: String,
+    /// Number of averages of the estimate (hits, segments), when known.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub averages: Option<usize>,
+    /// The fitted band \[Hz\].
+    pub band_hz: [f64; 2],
+    /// Why this band (one line per step).
+    pub band_evidence: Vec<String>,
+    /// One decision per channel of the FRF.
+    pub channels: Vec<ChannelDecision>,
+    /// Fits tried after the first one, and which was kept.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub alternatives: Vec<String>,
+    /// Warnings about the model's quality at this pose (empty when it fits its data).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub quality_warnings: Vec<String>,
+}
+
+impl PosePlan {
+    /// The channels the fit uses.
+    pub fn used_channels(&self) -> Vec<Channel> {
+        self.channels
+            .iter()
+            .filter(|c| c.used)
+            .map(|c| c.channel)
+            .collect()
+    }
+}
+
+/// What the estimate says about the data, for [`plan_pose`].
+#[derive(Debug, Clone, Default)]
+pub struct EstimateFacts {
+    /// Band where the force is within 20 dB of its peak.
+    pub excitation_band_hz: Option<(f64, f64)>,
+    /// Averages (hits, Welch segments, chirp periods).
+    pub averages: Option<usize>,
+    /// Description of the estimator.
+    pub method: String,
+}
+
+/// Mean of `v` over the lines within ±`octaves` of each line.
+fn smooth_octave(freqs: &[f64], v: &[f64], octaves: f64) -> Vec<f64> {
+    let r = 2f64.powf(octaves);
+    let mut pre = Vec::with_capacity(v.len() + 1);
+    pre.push(0.0);
+    for x in v {
+        let last = *pre.last().unwrap_or(&0.0);
+        pre.push(last + x);
+    }
+    let (mut a, mut b) = (0usize, 0usize);
+    freqs
+        .iter()
+        .map(|&f| {
+            while a < freqs.len() && freqs[a] < f / r {
+                a += 1;
+            }
+            while b < freqs.len() && freqs[b] <= f * r {
+                b += 1;
+            }
+            (pre[b] - pre[a]) / (b - a).max(1) as f64
+        })
+        .collect()
+}
+
+/// Coherence a channel without response exceeds on 1 % of its lines, with `n` averages.
+pub fn null_coherence_99(n: usize) -> f64 {
+    if n <= 1 {
+        return 1.0;
+    }
+    1.0 - 0.01f64.powf(1.0 / (n as f64 - 1.0))
+}
+
+/// Decides band and channels for one pose (module docs). `forced` lists channels the
+/// campaign keeps out whatever this pose says (decided over all poses); `user_band`
+/// narrows the band.
+pub fn plan_pose(
+    frf: &Frf,
+    facts: &EstimateFacts,
+    user_band: Option<(f64, f64)>,
+    excluded: &[Channel],
+) -> PosePlan {
+    let f = &frf.freqs_hz;
+    let mut plan = PosePlan {
+        excitation: facts.method.clone(),
+        averages: facts.averages,
+        ..Default::default()
+    };
+    let (mut lo, mut hi) = (
+        f.first().copied().unwrap_or(0.0),
+        f.last().copied().unwrap_or(0.0),
+    );
+    plan.band_evidence
+        .push(format!("FRF lines {lo:.1}-{hi:.1} Hz"));
+    if let Some((a, b)) = facts.excitation_band_hz {
+        if a.max(lo) < b.min(hi) {
+            lo = lo.max(a);
+            hi = hi.min(b);
+            plan.band_evidence
+                .push(format!("force within 20 dB of its peak: {a:.1}-{b:.1} Hz"));
+        }
+    }
+    // channel decisions over the force band
+    let in_band: Vec<usize> = (0..f.len()).filter(|&k| f[k] >= lo && f[k] <= hi).collect();
+    let x99 = facts.averages.map(null_coherence_99);
+    for c in &frf.channels {
+        let decision = match (&c.coherence, x99) {
+            _ if excluded.contains(&c.channel) => ChannelDecision {
+                channel: c.channel,
+                used: false,
+                significant_fraction: None,
+                reason: "not identified (no coherent response at most poses of the campaign)"
+                    .into(),
+            },
+            (Some(g), Some(x)) if x < 1.0 && !in_band.is_empty() => {
+                let frac =
+                    in_band.iter().filter(|&&k| g[k] > x).count() as f64 / in_band.len() as f64;
+                let used = frac >= MIN_INFORMATIVE_FRACTION;
+                ChannelDecision {
+                    channel: c.channel,
+                    used,
+                    significant_fraction: Some(frac),
+                    reason: if used {
+                        format!(
+                            "coherence above the noise-only level {x:.2} ({} averages) on {:.0} % of the lines",
+                            facts.averages.unwrap_or(0),
+                            100.0 * frac
+                        )
+                    } else {
+                        format!(
+                            "not identified (no coherent response): coherence above the noise-only level {x:.2} ({} averages) on only {:.0} % of the lines",
+                            facts.averages.unwrap_or(0),
+                            100.0 * frac
+                        )
+                    },
+                }
+            }
+            _ => ChannelDecision {
+                channel: c.channel,
+                used: true,
+                significant_fraction: None,
+                reason: "no coherence to judge by: used".into(),
+            },
+        };
+        plan.channels.push(decision);
+    }
+    if plan.channels.iter().all(|c| !c.used) {
+        // nothing passes: fit them all rather than nothing, and say so
+        for c in &mut plan.channels {
+            c.used = true;
+            c.reason
+                .push_str("; used anyway: no channel of this pose shows a coherent response");
+        }
+    }
+    // coherence-trusted edges, from the used channels with coherence
+    let used: Vec<&crate::frf::FrfChannel> = frf
+        .channels
+        .iter()
+        .zip(&plan.channels)
+        .filter(|(_, d)| d.used)
+        .map(|(c, _)| c)
+        .collect();
+    if used.iter().any(|c| c.coherence.is_some()) && in_band.len() > 8 {
+        let best: Vec<f64> = in_band
+            .iter()
+            .map(|&k| {
+                used.iter()
+                    .filter_map(|c| c.coherence.as_ref().map(|g| g[k]))
+                    .fold(0.0, f64::max)
+            })
+            .collect();
+        let fb: Vec<f64> = in_band.iter().map(|&k| f[k]).collect();
+        let sm = smooth_octave(&fb, &best, 1.0 / 12.0);
+        let mut nsr: Vec<f64> = sm
+            .iter()
+            .map(|&g| (1.0 - g.clamp(1e-6, 1.0 - 1e-9)) / g.clamp(1e-6, 1.0))
+            .collect();
+        nsr.sort_by(f64::total_cmp);
+        let med = nsr[nsr.len() / 2];
+        let trust =
+            MIN_TRUST_COHERENCE.max((1.0 / (1.0 + NSR_FACTOR * med)).min(MAX_TRUST_COHERENCE));
+        let first = sm.iter().position(|&g| g >= trust);
+        let last = sm.iter().rposition(|&g| g >= trust);
+        if let (Some(a), Some(b)) = (first, last) {
+            if b > a + 8 && (fb[a] > lo || fb[b] < hi) {
+                lo = fb[a];
+                hi = fb[b];
+                plan.band_evidence.push(format!(
+                    "coherence (smoothed over 1/6 octave) reaches the trust level {trust:.3} \
+                     (median noise-to-signal {med:.1e}) from {lo:.1} to {hi:.1} Hz"
+                ));
+            }
+        }
+    }
+    if let Some((a, b)) = user_band {
+        let (na, nb) = (lo.max(a), hi.min(b));
+        if na < nb {
+            lo = na;
+            hi = nb;
+            plan.band_evidence
+                .push(format!("narrowed by --fmin/--fmax to {lo:.1}-{hi:.1} Hz"));
+        } else {
+            plan.band_evidence.push(format!(
+                "--fmin/--fmax {a}-{b} Hz lies outside the trusted band: used as given"
+            ));
+            lo = a.max(f.first().copied().unwrap_or(a));
+            hi = b.min(f.last().copied().unwrap_or(b));
+        }
+    }
+    plan.band_hz = [lo, hi];
+    plan
+}
+
+/// Channels that carry no coherent response at most poses (at least half of the poses
+/// where they were measured): the campaign leaves them out everywhere, so every pose
+/// model has the same channels.
+pub fn campaign_exclusions(plans: &[PosePlan]) -> Vec<Channel> {
+    let mut all: Vec<Channel> = Vec::new();
+    for p in plans {
+        for c in &p.channels {
+            if !all.contains(&c.channel) {
+                all.push(c.channel);
+            }
+        }
+    }
+    all.into_iter()
+        .filter(|ch| {
+            let (mut seen, mut unused) = (0usize, 0usize);
+            for p in plans {
+                if let Some(d) = p.channels.iter().find(|c| c.channel == *ch) {
+                    seen += 1;
+                    if !d.used {
+                        unused += 1;
+                    }
+                }
+            }
+            seen > 0 && 2 * unused >= seen
+        })
+        .collect()
+}
+
+/// `frf` with only `channels` (in its own order).
+pub fn select_channels(frf: &Frf, channels: &[Channel]) -> Frf {
+    Frf {
+        freqs_hz: frf.freqs_hz.clone(),
+        channels: frf
+            .channels
+            .iter()
+            .filter(|c| channels.contains(&c.channel))
+            .cloned()
+            .collect(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::axis::Axis;
+    use crate::frf::FrfChannel;
+    use num_complex::Complex64;
+
+    #[test]
+    fn null_coherence_level_matches_beta_tail() {
+        // P(γ² > x) = (1 − x)^(n−1) for pure noise with n averages
+        for n in [2usize, 5, 30] {
+            let x = null_coherence_99(n);
+            assert!(((1.0 - x).powf(n as f64 - 1.0) - 0.01).abs() < 1e-12);
+        }
+        assert_eq!(null_coherence_99(1), 1.0);
+    }
+
+    #[test]
+    fn noise_channel_is_left_out_and_band_trimmed_to_trusted_coherence() {
+        let f: Vec<f64> = (1..=1000).map(|k| k as f64).collect();
+        let mut lcg = crate::test_util::Lcg(7);
+        let direct: Vec<f64> = f
+            .iter()
+            .map(|&x| if x < 50.0 { 0.3 } else { 0.995 })
+            .collect();
+        let noise: Vec<f64> = f.iter().map(|_| (lcg.uniform() + 0.5).powi(4)).collect();
+        let ch = |o, g: Vec<f64>| FrfChannel {
+            channel: Channel::new(o, Axis::X),
+            h: vec![Complex64::new(1.0, 0.0); f.len()],
+            coherence: Some(g),
+        };
+        let frf = Frf {
+            freqs_hz: f.clone(),
+            channels: vec![ch(Axis::X, direct), ch(Axis::Z, noise)],
+        };
+        let facts = EstimateFacts {
+            excitation_band_hz: Some((1.0, 900.0)),
+            averages: Some(5),
+            method: "impact".into(),
+        };
+        let p = plan_pose(&frf, &facts, None, &[]);
+        assert!(p.channels[0].used && !p.channels[1].used, "{p:?}");
+        assert!(
+            p.band_hz[0] > 45.0 && p.band_hz[0] < 60.0,
+            "{:?}",
+            p.band_hz
+        );
+        assert!((p.band_hz[1] - 900.0).abs() < 1.0);
+        // the user band only narrows
+        let q = plan_pose(&frf, &facts, Some((100.0, 2000.0)), &[]);
+        assert_eq!(q.band_hz, [100.0, 900.0]);
+    }
+}
