@@ -309,6 +309,8 @@ fn resolve_excitation(requested: Excitation, infos: &[RecordInfo]) -> Result<Exc
         Excitation::Auto => {
             if infos.iter().all(|i| i.impulsive) {
                 Excitation::Impact
+            } else if infos.iter().all(|i| i.sweep) {
+                Excitation::Chirp
             } else if infos.iter().all(|i| !i.impulsive) {
                 Excitation::Continuous
             } else {
@@ -326,6 +328,8 @@ struct RecordInfo {
     inputs: Vec<Axis>,
     strongest: Axis,
     impulsive: bool,
+    /// The force is a sweep (its dominant frequency moves monotonically over the record).
+    sweep: bool,
     outputs: Vec<Axis>,
 }
 
@@ -338,7 +342,7 @@ impl RecordInfo {
             let m = sum4(f, |v| v) / n;
             rms[a.index()] = (sum4(f, |v| (v - m) * (v - m)) / n).sqrt();
         }
-        Self::from_stats(&r.source, rms, r.response_axes(), |a| {
+        let mut info = Self::from_stats(&r.source, rms, r.response_axes(), |a| {
             let f = r.force(a).unwrap_or(&[]);
             let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
             for &v in f {
@@ -346,7 +350,11 @@ impl RecordInfo {
                 hi = if v > hi { v } else { hi };
             }
             impulsive(&subsample(f), (lo, hi))
-        })
+        });
+        if let Ok(i) = &mut info {
+            i.sweep = !i.impulsive && r.force(i.strongest).is_some_and(is_sweep);
+        }
+        info
     }
 
     /// From per-axis force RMS values (0 = no column), the response axes and a test of
@@ -375,6 +383,7 @@ impl RecordInfo {
             inputs,
             strongest,
             impulsive: impulsive_along(strongest),
+            sweep: false,
             outputs,
         })
     }
@@ -405,6 +414,56 @@ fn impulsive(samples: &[f64], (lo, hi): (f64, f64)) -> bool {
         .filter(|v| (*v - base).abs() > 0.2 * peak)
         .count();
     (above as f64) < 0.02 * samples.len() as f64
+}
+
+/// Segments the force is cut into to follow its dominant frequency.
+const SWEEP_SEGMENTS: usize = 16;
+
+/// True when the force is a sweep (linear, logarithmic or stepped sine): over
+/// [`SWEEP_SEGMENTS`] equal parts of the record, the parts carrying force (RMS at least
+/// 10 % of the strongest part's, at least 6 of them) have a dominant frequency that only
+/// rises or only falls, over a span of at least a factor 4. Random force has no steady
+/// dominant frequency, milling's stays put; for a sweep the rectangular-window full-record
+/// ratio is unbiased where Welch's Hann segments smear the moving line.
+fn is_sweep(f: &[f64]) -> bool {
+    let n = f.len() / SWEEP_SEGMENTS;
+    if n < 64 {
+        return false;
+    }
+    let n = n & !1;
+    let mut planner = RealFftPlanner::<f64>::new();
+    let r2c = planner.plan_fft_forward(n);
+    let mut out = r2c.make_output_vec();
+    let mut parts: Vec<(f64, usize)> = Vec::with_capacity(SWEEP_SEGMENTS);
+    for s in 0..SWEEP_SEGMENTS {
+        let seg = &f[s * n..(s + 1) * n];
+        let mean = seg.iter().sum::<f64>() / n as f64;
+        let mut buf: Vec<f64> = seg.iter().map(|v| v - mean).collect();
+        let rms = (buf.iter().map(|v| v * v).sum::<f64>() / n as f64).sqrt();
+        if r2c.process(&mut buf, &mut out).is_err() {
+            return false;
+        }
+        let k = (1..out.len())
+            .max_by(|&a, &b| out[a].norm_sqr().total_cmp(&out[b].norm_sqr()))
+            .unwrap_or(0);
+        parts.push((rms, k));
+    }
+    let top = parts.iter().map(|p| p.0).fold(0.0, f64::max);
+    let lines: Vec<usize> = parts
+        .iter()
+        .filter(|p| p.0 >= 0.1 * top)
+        .map(|p| p.1)
+        .collect();
+    if lines.len() < 6 || lines.iter().any(|&k| k == 0) {
+        return false;
+    }
+    let up = lines.windows(2).all(|w| w[1] >= w[0]);
+    let down = lines.windows(2).all(|w| w[1] <= w[0]);
+    let (lo, hi) = (
+        *lines.iter().min().unwrap_or(&1),
+        *lines.iter().max().unwrap_or(&1),
+    );
+    (up || down) && hi >= 4 * lo
 }
 
 fn median(v: &[f64]) -> f64 {

@@ -160,6 +160,20 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
             fits.join(", ")
         ));
     }
+    // how the automatic choices were made (the plan of the first pose; every pose's plan
+    // is in the twin file)
+    if let Some(plan) = twin.poses.first().and_then(|p| p.plan.as_ref()) {
+        out.say(format!("  decided from the data (pose 1; all poses in the twin file's \"plan\"): excitation {}", plan.excitation));
+        for e in &plan.band_evidence {
+            out.say(format!("    band: {e}"));
+        }
+        for c in &plan.channels {
+            out.say(format!("    channel {}: {}", c.channel, c.reason));
+        }
+        for a in plan.alternatives.iter().take(1) {
+            out.say(format!("    fit: {a}"));
+        }
+    }
     let loo = &twin.interpolation.leave_one_out;
     if !loo.is_empty() {
         let all: Vec<f64> = loo
@@ -185,6 +199,7 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
             "pose": p.pose, "modes": p.order.modes, "automatic_order": p.order.automatic,
             "fit": p.fit, "natural_freqs_hz": p.model.modes.iter().map(|m| m.freq_hz()).collect::<Vec<_>>(),
             "damping": p.model.modes.iter().map(|m| m.zeta).collect::<Vec<_>>(),
+            "band_hz": p.band_hz, "plan": p.plan,
         })).collect::<Vec<_>>(),
         "interpolation": twin.interpolation,
         "warnings": res.warnings,

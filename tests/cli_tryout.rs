@@ -1,0 +1,214 @@
+//! Defaults only (files and `--out`), on data mtwin did not generate: the tryout gantry
+//! campaign and log sweep from an independent generator (`../shared/data/tryout_gantry`,
+//! judged against its analytic truth) and the real impact-hammer file (judged against a
+//! plain per-hit H1 of its raw samples).
+
+mod common;
+
+use common::{mtwin, s, shared_data, stderr, tmp};
+use identify::axis::{Axis, Channel};
+use identify::frf::{fit_percent, Frf};
+use identify::interpolate::TwinEvaluator;
+use identify::read::read_frf_csv;
+use identify::twin::Twin;
+use num_complex::Complex64;
+use std::path::{Path, PathBuf};
+
+fn tryout(rel: &str) -> PathBuf {
+    shared_data().join("tryout_gantry").join(rel)
+}
+
+/// The pose in a truth file's first comment line (`... pose=X,Y,Z`).
+fn pose_of(path: &Path) -> [f64; 3] {
+    let text = std::fs::read_to_string(path).expect("truth file");
+    let first = text.lines().next().unwrap_or_default();
+    let p: Vec<f64> = first
+        .split("pose=")
+        .nth(1)
+        .expect("pose in the comment line")
+        .split_whitespace()
+        .next()
+        .unwrap_or_default()
+        .split(',')
+        .map(|v| v.parse().expect("pose number"))
+        .collect();
+    [p[0], p[1], p[2]]
+}
+
+fn channel(frf: &Frf, ch: Channel) -> &[Complex64] {
+    &frf.channels
+        .iter()
+        .find(|c| c.channel == ch)
+        .unwrap_or_else(|| panic!("channel {ch} missing"))
+        .h
+}
+
+/// `h` on `freqs` linearly interpolated (real and imaginary parts) at `at`.
+fn interp(freqs: &[f64], h: &[Complex64], at: f64) -> Complex64 {
+    let k = freqs.partition_point(|f| *f < at).clamp(1, freqs.len() - 1);
+    let t = (at - freqs[k - 1]) / (freqs[k] - freqs[k - 1]);
+    h[k - 1] * (1.0 - t) + h[k] * t
+}
+
+/// Fit [%] of the twin at `pose` against `truth` for channel `ch` in `band`.
+fn twin_vs_truth(twin: &Twin, truth: &Frf, pose: [f64; 3], ch: Channel, band: (f64, f64)) -> f64 {
+    let mut ev = TwinEvaluator::new(twin).expect("evaluator");
+    let m = ev.model_at(pose).clone();
+    let ci = m.channel_index(ch).expect("channel in the twin");
+    let (mut t, mut e) = (Vec::new(), Vec::new());
+    for (k, &f) in truth.freqs_hz.iter().enumerate() {
+        if f >= band.0 && f <= band.1 {
+            t.push(channel(truth, ch)[k]);
+            e.push(m.eval_hz(ci, f));
+        }
+    }
+    fit_percent(&t, &e)
+}
+
+fn identify(files: &[PathBuf], out: &Path) -> Twin {
+    let mut args: Vec<&str> = vec!["identify", "-q"];
+    args.extend(files.iter().map(|f| s(f)));
+    args.extend(["--out", s(out)]);
+    let o = mtwin(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    Twin::load(out).expect("the written twin loads")
+}
+
+#[test]
+fn tryout_campaign_twin_fits_the_truth_better_than_its_own_h1() {
+    let dir = tmp();
+    let mut files: Vec<PathBuf> = std::fs::read_dir(tryout("campaign"))
+        .expect("campaign folder")
+        .map(|e| e.expect("entry").path())
+        .collect();
+    files.sort();
+    let twin = identify(&files, &dir.path().join("twin.json"));
+    assert_eq!(twin.poses.len(), 12);
+    let xx = Channel::new(Axis::X, Axis::X);
+    let yy = Channel::new(Axis::Y, Axis::Y);
+    let band = (30.0, 2500.0);
+    // z responses to x/y hammers carry only noise here (the truth's zx, zy are zero):
+    // the plan leaves them out and says so
+    for p in &twin.poses {
+        let plan = p.plan.as_ref().expect("plan stored with every pose");
+        for out in [Axis::X, Axis::Y] {
+            let d = plan
+                .channels
+                .iter()
+                .find(|c| c.channel == Channel::new(Axis::Z, out))
+                .expect("z channel judged");
+            assert!(!d.used && d.reason.contains("not identified"), "{d:?}");
+        }
+        assert!(p
+            .model
+            .channel_index(Channel::new(Axis::Z, Axis::X))
+            .is_none());
+    }
+    let mut worst_measured = f64::INFINITY;
+    for i in 0..12 {
+        let truth_path = tryout(&format!("truth/g{i:02}.csv"));
+        let truth = read_frf_csv(&truth_path).expect("truth");
+        let pose = pose_of(&truth_path);
+        for (ch, axis) in [(xx, "x"), (yy, "y")] {
+            // mtwin's own H1 of that pose's file, onto the truth's lines
+            let h1_path = dir.path().join(format!("h1_{i}_{axis}.csv"));
+            let src = tryout(&format!("campaign/g{i:02}_{axis}.csv"));
+            let o = mtwin(&["frf", "-q", s(&src), "--out", s(&h1_path)]);
+            assert!(o.status.success(), "{}", stderr(&o));
+            let h1 = read_frf_csv(&h1_path).expect("h1");
+            let (mut t, mut e) = (Vec::new(), Vec::new());
+            for (k, &f) in truth.freqs_hz.iter().enumerate() {
+                if f >= band.0 && f <= band.1 {
+                    t.push(channel(&truth, ch)[k]);
+                    e.push(interp(&h1.freqs_hz, channel(&h1, ch), f));
+                }
+            }
+            let h1_fit = fit_percent(&t, &e);
+            let twin_fit = twin_vs_truth(&twin, &truth, pose, ch, band);
+            eprintln!("g{i:02} {ch}: twin {twin_fit:.2} %, own H1 {h1_fit:.2} %");
+            assert!(
+                twin_fit >= h1_fit,
+                "pose g{i:02} {ch}: the twin fits the truth at {twin_fit:.2} %, worse than the H1 it came from ({h1_fit:.2} %)"
+            );
+            worst_measured = worst_measured.min(twin_fit);
+        }
+    }
+    // unmeasured poses: the target is worst measured - 2 points; today's interpolation
+    // reaches about 92 % there (see the README), so this guards against losing ground
+    for u in 0..3 {
+        let truth_path = tryout(&format!("truth/u{u}.csv"));
+        let truth = read_frf_csv(&truth_path).expect("truth");
+        let pose = pose_of(&truth_path);
+        for ch in [xx, yy] {
+            let f = twin_vs_truth(&twin, &truth, pose, ch, band);
+            eprintln!("u{u} {ch}: {f:.2} % (worst measured {worst_measured:.2} %)");
+            assert!(f >= 90.0, "unmeasured pose u{u} {ch}: {f:.2} %");
+        }
+    }
+}
+
+#[test]
+fn tryout_log_sweep_twin_beats_the_raw_ratio_of_its_record() {
+    let dir = tmp();
+    let sweep = tryout("sweep_centre_x.csv");
+    let twin = identify(std::slice::from_ref(&sweep), &dir.path().join("twin.json"));
+    let truth_path = tryout("truth/centre.csv");
+    let truth = read_frf_csv(&truth_path).expect("truth");
+    let xx = Channel::new(Axis::X, Axis::X);
+    let band = (30.0, 2400.0);
+    let twin_fit = twin_vs_truth(&twin, &truth, pose_of(&truth_path), xx, band);
+    // the raw full-record ratio FFT(dx)/FFT(fx), onto the truth's lines
+    let ts = identify::read::read_timeseries(&sweep).expect("sweep");
+    let fx = ts.force(Axis::X).expect("fx");
+    let dx = ts.response(Axis::X).expect("dx");
+    let n = fx.len();
+    let mut planner = realfft::RealFftPlanner::<f64>::new();
+    let r2c = planner.plan_fft_forward(n);
+    let (mut a, mut b) = (fx.to_vec(), dx.to_vec());
+    let (mut fa, mut fb) = (r2c.make_output_vec(), r2c.make_output_vec());
+    r2c.process(&mut a, &mut fa).expect("fft");
+    r2c.process(&mut b, &mut fb).expect("fft");
+    let df = ts.fs() / n as f64;
+    let freqs: Vec<f64> = (0..fa.len()).map(|k| k as f64 * df).collect();
+    let ratio: Vec<Complex64> = fa.iter().zip(&fb).map(|(f, d)| d / f).collect();
+    let (mut t, mut e) = (Vec::new(), Vec::new());
+    for (k, &f) in truth.freqs_hz.iter().enumerate() {
+        if f >= band.0 && f <= band.1 {
+            t.push(channel(&truth, xx)[k]);
+            e.push(interp(&freqs, &ratio, f));
+        }
+    }
+    let raw = fit_percent(&t, &e);
+    eprintln!("sweep xx: twin {twin_fit:.2} %, raw ratio {raw:.2} %");
+    assert!(
+        twin_fit >= raw,
+        "twin {twin_fit:.2} % < raw ratio {raw:.2} %"
+    );
+}
+
+#[test]
+fn real_impact_defaults_choose_a_trusted_band_and_many_modes() {
+    let dir = tmp();
+    let file = shared_data().join("pyfrf_impact_hammer/impact_5hits.csv");
+    let twin = identify(std::slice::from_ref(&file), &dir.path().join("twin.json"));
+    let p = &twin.poses[0];
+    let plan = p.plan.as_ref().expect("plan");
+    // the force is 20 dB down above ~7 kHz: the band must stop there, not at Nyquist
+    assert!(p.band_hz[1] < 8000.0, "band {:?}", p.band_hz);
+    assert!(plan.band_evidence.iter().any(|e| e.contains("20 dB")));
+    // five resonances are known near 810, 900, 2640, 3669, 4128 Hz (data README)
+    for f0 in [810.0, 900.0, 2640.0, 3669.0, 4128.0] {
+        assert!(
+            p.model
+                .modes
+                .iter()
+                .any(|m| (m.freq_hz() / f0 - 1.0).abs() < 0.01),
+            "no mode near {f0} Hz: {:?}",
+            p.model
+                .modes
+                .iter()
+                .map(|m| m.freq_hz())
+                .collect::<Vec<_>>()
+        );
+    }
+}
