@@ -454,7 +454,7 @@ fn is_sweep(f: &[f64]) -> bool {
         .filter(|p| p.0 >= 0.1 * top)
         .map(|p| p.1)
         .collect();
-    if lines.len() < 6 || lines.iter().any(|&k| k == 0) {
+    if lines.len() < 6 || lines.contains(&0) {
         return false;
     }
     let up = lines.windows(2).all(|w| w[1] >= w[0]);
