@@ -155,8 +155,16 @@ pub fn plan_pose(
     // channel decisions over the force band
     let in_band: Vec<usize> = (0..f.len()).filter(|&k| f[k] >= lo && f[k] <= hi).collect();
     let x99 = facts.averages.map(null_coherence_99);
+    let level = |c: &crate::frf::FrfChannel| c.h.iter().map(|v| v.norm()).fold(0.0, f64::max);
+    let top = frf.channels.iter().map(level).fold(0.0, f64::max);
     for c in &frf.channels {
         let decision = match (&c.coherence, x99) {
+            _ if !(level(c) > 1e-9 * top) => ChannelDecision {
+                channel: c.channel,
+                used: false,
+                significant_fraction: None,
+                reason: "not identified (the FRF is zero on every line)".into(),
+            },
             _ if excluded.contains(&c.channel) => ChannelDecision {
                 channel: c.channel,
                 used: false,

@@ -61,7 +61,8 @@ pub fn is_frf_input(path: &Path) -> bool {
     is_uff(path) || is_frf_csv(path)
 }
 
-/// The `# pose=X,Y,Z` comment of an FRF CSV, if any.
+/// The pose of an FRF CSV from a comment line `# pose=X,Y,Z`, or `pose=X,Y,Z` as the
+/// last word of a comment line (`# analytic receptance at pose=0.2,0.15,0.05`), if any.
 fn pose_comment(text: &str, path: &Path) -> Result<Option<[f64; 3]>> {
     for (i, line) in text.lines().enumerate() {
         let t = line.trim();
@@ -71,7 +72,13 @@ fn pose_comment(text: &str, path: &Path) -> Result<Option<[f64; 3]>> {
             }
             break;
         }
-        if let Some(v) = t.trim_start_matches('#').trim().strip_prefix("pose=") {
+        let body = t.trim_start_matches('#').trim();
+        let found = body.strip_prefix("pose=").or_else(|| {
+            body.rsplit_once(" pose=")
+                .map(|(_, v)| v)
+                .filter(|v| !v.contains(' '))
+        });
+        if let Some(v) = found {
             return parse_pose(v).map(Some).map_err(|e| {
                 BadInput(format!("{}:{}: pose comment: {e}", path.display(), i + 1)).into()
             });
