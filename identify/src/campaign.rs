@@ -555,8 +555,11 @@ fn track_modes(fits: &mut [PoseFit]) -> Result<Vec<String>> {
 
 /// The first fit of a pose, then the alternatives when a channel fits its measured FRF
 /// worse than [`TRY_ALTERNATIVES_BELOW`]: the inverse-variance weighting (when the
-/// campaign allows it) and a deeper stabilization diagram (orders up to 128, no early
-/// stop), each also with the other weighting; the best mean channel fit in the band wins
+/// campaign allows it) and the balanced weighting, then, if a channel is still below
+/// [`QUALITY_WARNING_BELOW`] and the diagram found fewer physical modes than the model
+/// has (or none), a deeper
+/// stabilization diagram (orders up to 128, no early stop) with the best
+/// weighting so far; the best mean channel fit (octave-averaged, [`octave_fits`]) wins
 /// (an alternative must gain 0.2 points). The plan records what was tried.
 fn fit_pose(
     frf: &Frf,
@@ -590,6 +593,7 @@ fn fit_pose(
     })?;
     let mut best_score = score(&best);
     let mut best_name = name(options);
+    let mut best_options = options.clone();
     let mut candidates: Vec<FitOptions> = Vec::new();
     let ml_allowed = opts.try_ml_weighting && options.weighting == Weighting::Coherence;
     if ml_allowed {
@@ -612,17 +616,17 @@ fn fit_pose(
     let mut i = 0;
     while i < candidates.len() || (!tried_deep && options.n_modes.is_none()) {
         if i >= candidates.len() {
-            // the deeper diagram only when the fits so far leave a channel below target
+            // the deeper diagram only for a poor fit whose modes the diagram did not account
+            // for (it found none, or the order rule had to add pairs it did not see): a
+            // deeper diagram cannot help a fit whose modes the diagram already all found
             tried_deep = true;
-            if best_score.1 >= TRY_ALTERNATIVES_BELOW {
+            let physical = best.diagram.n_physical();
+            if best_score.1 >= QUALITY_WARNING_BELOW
+                || (physical > 0 && physical >= best.model.modes.len())
+            {
                 break;
             }
-            let n = candidates.len();
-            candidates.push(deep(options));
-            for k in 0..n {
-                let d = deep(&candidates[k]);
-                candidates.push(d);
-            }
+            candidates.push(deep(&best_options));
             continue;
         }
         let cand = &candidates[i];
@@ -643,6 +647,7 @@ fn fit_pose(
                     best = alt;
                     best_score = s;
                     best_name = name(cand);
+                    best_options = cand.clone();
                 }
             }
             Err(e) => plan
