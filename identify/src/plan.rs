@@ -91,8 +91,9 @@ pub struct EstimateFacts {
     pub method: String,
 }
 
-/// Mean of `v` over the lines within ±`octaves` of each line.
-fn smooth_octave(freqs: &[f64], v: &[f64], octaves: f64) -> Vec<f64> {
+/// Mean of `v` over the lines within ±`octaves` of each line (two pointers over the
+/// sorted frequencies, prefix sums).
+pub(crate) fn smooth_octave(freqs: &[f64], v: &[f64], octaves: f64) -> Vec<f64> {
     let r = 2f64.powf(octaves);
     let mut pre = Vec::with_capacity(v.len() + 1);
     pre.push(0.0);

@@ -36,29 +36,12 @@ const COH_CLIP: f64 = 0.99;
 /// Half-width in octaves of the neighbourhood whose RMS level divides the balanced weight.
 const BALANCE_OCTAVES: f64 = 1.0 / 6.0;
 
-/// RMS of `|h|` over the lines within ±`octaves` of each line (two pointers over the
-/// sorted frequencies, prefix sums of `|h|²`).
+/// RMS of `|h|` over the lines within ±`octaves` of each line.
 pub(crate) fn local_level(freqs: &[f64], h: &[Complex64], octaves: f64) -> Vec<f64> {
-    let r = 2f64.powf(octaves);
-    let mut pre = Vec::with_capacity(h.len() + 1);
-    pre.push(0.0);
-    for v in h {
-        let last = *pre.last().unwrap_or(&0.0);
-        pre.push(last + v.norm_sqr());
-    }
-    let (mut a, mut b) = (0usize, 0usize);
-    freqs
-        .iter()
-        .map(|&f| {
-            while a < freqs.len() && freqs[a] < f / r {
-                a += 1;
-            }
-            while b < freqs.len() && freqs[b] <= f * r {
-                b += 1;
-            }
-            let n = (b - a).max(1) as f64;
-            ((pre[b] - pre[a]) / n).max(0.0).sqrt()
-        })
+    let power: Vec<f64> = h.iter().map(|v| v.norm_sqr()).collect();
+    crate::plan::smooth_octave(freqs, &power, octaves)
+        .into_iter()
+        .map(|p| p.max(0.0).sqrt())
         .collect()
 }
 
