@@ -558,7 +558,7 @@ fn track_modes(fits: &mut [PoseFit]) -> Result<Vec<String>> {
 /// campaign allows it) and the balanced weighting, then, if a channel is still below
 /// [`QUALITY_WARNING_BELOW`] and the diagram found fewer physical modes than the model
 /// has (or none), a deeper
-/// stabilization diagram (orders up to 128, no early stop) with the best
+/// stabilization diagram (orders up to 128, no early stop) with the first and the best
 /// weighting so far; the best mean channel fit (octave-averaged, [`octave_fits`]) wins
 /// (an alternative must gain 0.2 points). The plan records what was tried.
 fn fit_pose(
@@ -626,7 +626,10 @@ fn fit_pose(
             {
                 break;
             }
-            candidates.push(deep(&best_options));
+            candidates.push(deep(options));
+            if best_options != *options {
+                candidates.push(deep(&best_options));
+            }
             continue;
         }
         let cand = &candidates[i];
