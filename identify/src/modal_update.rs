@@ -6,8 +6,20 @@
 //! weighted by the inverse of its standard error (from coherence); a weak prior pulls
 //! the free parameters towards the previous model so that a mode seen on one flank
 //! only cannot run away.
+//!
+//! The prior only means something when the standard errors do: a twin identified from
+//! other data never fits new data to within the Welch noise, and with noise-only errors
+//! that model discrepancy outweighs any prior, so free modes bend to absorb it (a mode
+//! the data barely see runs to a far frequency and acts as a broadband correction).
+//! [`discrepancy`] estimates, per channel, the relative model error robustly (the median
+//! normalised misfit, so the few lines a real change affects do not set it) and
+//! [`with_discrepancy`] adds it to the errors. [`update_modes_with`] also keeps each
+//! mode's identity: its frequency stays between its neighbours ([`ModeBounds`]), its
+//! damping within physical bounds, and with [`UpdateOptions::shape_prior`] its numerators
+//! keep the mode's direction (a y-bending mode cannot take on an x residue), each within
+//! a relative width that can be the twin's own measured discrepancy in that channel.
 
-use crate::axis::Channel;
+use crate::axis::{Axis, Channel};
 use crate::error::{Error, Result};
 use crate::model::ModalModel;
 use nalgebra::{DMatrix, DVector};
@@ -106,6 +118,218 @@ impl Default for Prior {
     }
 }
 
+/// Physical range of a damping ratio a refit may give a structural mode.
+pub const ZETA_RANGE: (f64, f64) = (1e-4, 0.2);
+
+/// Bounds of one free mode's parameters (natural logarithms).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ModeBounds {
+    /// Of ln ω.
+    pub ln_wn: (f64, f64),
+    /// Of ln ζ.
+    pub ln_zeta: (f64, f64),
+}
+
+impl ModeBounds {
+    /// Identity bounds of mode `k` of `model`: the natural frequency stays between the
+    /// geometric midpoints to its neighbours in frequency (it can neither pass a
+    /// neighbour nor take its place; modes with real poles, ζ ≥ 1, are no resonances and
+    /// do not count) and within 3 prior widths of where it was; the damping ratio within
+    /// [`ZETA_RANGE`] and 3 prior widths. The starting point always lies inside.
+    pub fn identity(model: &ModalModel, k: usize, prior: &Prior) -> ModeBounds {
+        let m = model.modes[k];
+        let lw = m.wn.ln();
+        let (mut lo, mut hi) = (lw - 3.0 * prior.ln_wn, lw + 3.0 * prior.ln_wn);
+        for (j, o) in model.modes.iter().enumerate() {
+            if j == k || o.zeta >= 1.0 || !(o.wn > 0.0) {
+                continue;
+            }
+            let mid = 0.5 * (lw + o.wn.ln());
+            if o.wn < m.wn {
+                lo = lo.max(mid);
+            } else if o.wn > m.wn {
+                hi = hi.min(mid);
+            }
+        }
+        let lz = m.zeta.max(1e-6).ln();
+        let zlo = (lz - 3.0 * prior.ln_zeta).max(ZETA_RANGE.0.ln()).min(lz);
+        let zhi = (lz + 3.0 * prior.ln_zeta).min(ZETA_RANGE.1.ln()).max(lz);
+        ModeBounds {
+            ln_wn: (lo.min(lw), hi.max(lw)),
+            ln_zeta: (zlo, zhi),
+        }
+    }
+
+    /// True when `ln_wn` lies on (within 1e-6 of) the frequency bounds.
+    pub fn wn_at_bound(&self, ln_wn: f64) -> bool {
+        ln_wn <= self.ln_wn.0 + 1e-6 || ln_wn >= self.ln_wn.1 - 1e-6
+    }
+}
+
+/// Options of [`update_modes_with`].
+#[derive(Debug, Clone)]
+pub struct UpdateOptions {
+    /// Prior widths.
+    pub prior: Prior,
+    /// Bounds of every free mode (same order as `free`); `None` = unbounded.
+    pub bounds: Option<Vec<ModeBounds>>,
+    /// Numerator prior per channel, relative to the numerator itself: `Some(w)` gives a
+    /// numerator in channel `c` (model channel order) the width `w[c]` times its own size
+    /// (at least 1e-6 of the mode's largest numerator). The mode keeps its direction:
+    /// wear changes a mode's frequency and damping, it does not turn a y-mode into an
+    /// x-mode, so a residue the mode hardly has cannot grow (the data's weak cross
+    /// channels, estimated from correlated cutting forces, would otherwise rotate it).
+    /// `None`: every numerator's width is `num_rel` times the mode's largest numerator.
+    pub shape_prior: Option<Vec<f64>>,
+    /// Levenberg–Marquardt iterations at most.
+    pub max_iter: usize,
+    /// Also compute [`UpdateResult::posterior_sd`] (one more Jacobian).
+    pub posterior: bool,
+}
+
+impl Default for UpdateOptions {
+    fn default() -> Self {
+        UpdateOptions {
+            prior: Prior::default(),
+            bounds: None,
+            shape_prior: None,
+            max_iter: 60,
+            posterior: false,
+        }
+    }
+}
+
+impl UpdateOptions {
+    /// Identity-keeping options: [`ModeBounds::identity`] for every mode of `free` and the
+    /// shape prior, `prior.num_rel` relative in every channel; posterior widths computed.
+    pub fn keeping_identity(model: &ModalModel, free: &[usize], prior: Prior) -> Self {
+        UpdateOptions {
+            prior,
+            bounds: Some(
+                free.iter()
+                    .map(|&k| ModeBounds::identity(model, k, &prior))
+                    .collect(),
+            ),
+            shape_prior: Some(vec![prior.num_rel; model.channels.len()]),
+            max_iter: 60,
+            posterior: true,
+        }
+    }
+}
+
+/// Size `|b0| + |b1| ω` of mode `k`'s numerator in channel `c`.
+pub(crate) fn num_size(model: &ModalModel, c: usize, k: usize) -> f64 {
+    let n = model.channels[c].num[k];
+    n.b0.abs() + n.b1.abs() * model.modes[k].wn
+}
+
+/// Width scale of mode `k`'s numerator in channel `c` under the shape prior (see
+/// [`UpdateOptions::shape_prior`]), before the channel's relative width: the numerator's
+/// own size, at least 1e-6 of the mode's largest numerator `mode_scale`.
+pub(crate) fn shape_scale(model: &ModalModel, c: usize, k: usize, mode_scale: f64) -> f64 {
+    num_size(model, c, k).max(1e-6 * mode_scale)
+}
+
+/// The size a model error of channel `ci` at `f_hz` scales with: the geometric mean of
+/// the direct channels along its output and input, `sqrt(|F_oo| |F_ii|)` (an error in a
+/// mode's direction moves a cross channel by that much, however small the cross channel
+/// itself is), at least `|F_oi|`. Without a direct channel along an axis, the largest
+/// channel at that end stands in.
+fn discrepancy_scale(model: &ModalModel, ci: usize, f_hz: f64) -> f64 {
+    let ch = model.channels[ci].channel;
+    let own = model.eval_hz(ci, f_hz).norm();
+    let along = |a: Axis, out: bool| -> f64 {
+        match model.channel_index(Channel::new(a, a)) {
+            Some(d) => model.eval_hz(d, f_hz).norm(),
+            None => (0..model.channels.len())
+                .filter(|&j| {
+                    let cj = model.channels[j].channel;
+                    if out {
+                        cj.output == a
+                    } else {
+                        cj.input == a
+                    }
+                })
+                .map(|j| model.eval_hz(j, f_hz).norm())
+                .fold(0.0, f64::max),
+        }
+    };
+    own.max((along(ch.output, true) * along(ch.input, false)).sqrt())
+}
+
+/// Per channel of `pts`, the relative model discrepancy ε: the smallest ε ≥ 0 for which
+/// the median of `|F − H|² / (σ² + ε² S²)` over the channel's points is the median of
+/// χ²₂ (2 ln 2), F the model and S its size for errors there (`sqrt(|F_oo| |F_ii|)`, at
+/// least `|F|`: see [`with_discrepancy`]). A median is robust: lines a real change of
+/// the machine affects (fewer than half) do not set it. Capped at 100.
+pub fn discrepancy(model: &ModalModel, pts: &[Points]) -> Vec<f64> {
+    let target = 2.0 * std::f64::consts::LN_2;
+    pts.iter()
+        .map(|p| {
+            let Some(ci) = model.channel_index(p.channel) else {
+                return 0.0;
+            };
+            let rm: Vec<(f64, f64)> = p
+                .freqs_hz
+                .iter()
+                .zip(&p.h)
+                .map(|(f, h)| {
+                    let m = model.eval_hz(ci, *f);
+                    ((m - h).norm_sqr(), discrepancy_scale(model, ci, *f).powi(2))
+                })
+                .collect();
+            if rm.is_empty() {
+                return 0.0;
+            }
+            let med = |eps: f64| -> f64 {
+                let mut v: Vec<f64> = rm
+                    .iter()
+                    .zip(&p.sigma)
+                    .map(|((r2, m2), s)| r2 / (s * s + eps * eps * m2).max(1e-300))
+                    .collect();
+                let mid = v.len() / 2;
+                *v.select_nth_unstable_by(mid, f64::total_cmp).1
+            };
+            if med(0.0) <= target {
+                return 0.0;
+            }
+            let (mut lo, mut hi) = (0.0f64, 100.0f64);
+            if med(hi) > target {
+                return hi;
+            }
+            for _ in 0..60 {
+                let mid = 0.5 * (lo + hi);
+                if med(mid) > target {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            hi
+        })
+        .collect()
+}
+
+/// `pts` with the model discrepancy `eps` (per channel, see [`discrepancy`]) added to
+/// every standard error: `σ² + ε² S²`, S the size of `model`'s channel for errors there:
+/// the geometric mean of the direct channels along its output and input (a mode's
+/// direction is known no better than its direct residues), at least its own `|F|`.
+pub fn with_discrepancy(model: &ModalModel, pts: &[Points], eps: &[f64]) -> Vec<Points> {
+    pts.iter()
+        .zip(eps)
+        .map(|(p, e)| {
+            let mut q = p.clone();
+            if let Some(ci) = model.channel_index(p.channel) {
+                for (s, f) in q.sigma.iter_mut().zip(&p.freqs_hz) {
+                    let m = discrepancy_scale(model, ci, *f);
+                    *s = (*s * *s + e * e * m * m).sqrt();
+                }
+            }
+            q
+        })
+        .collect()
+}
+
 /// Result of [`update_modes`].
 #[derive(Debug, Clone)]
 pub struct UpdateResult {
@@ -117,6 +341,12 @@ pub struct UpdateResult {
     pub chi_after: f64,
     /// LM iterations used.
     pub iterations: usize,
+    /// Free modes whose frequency ended on a bound (always empty without bounds).
+    pub at_bound: Vec<usize>,
+    /// Posterior standard deviation of every free mode's `[ln ω, ln ζ]` (same order as
+    /// `free`; from the Gauss–Newton curvature, prior included, scaled by the misfit per
+    /// degree of freedom when above 1); empty unless [`UpdateOptions::posterior`].
+    pub posterior_sd: Vec<[f64; 2]>,
 }
 
 struct Layout {
@@ -145,7 +375,8 @@ fn unpack(base: &ModalModel, lay: &Layout, theta: &[f64], scale: &[f64]) -> Moda
     m
 }
 
-/// Updates the modes `free` of `model` to fit `points` (Levenberg–Marquardt).
+/// Updates the modes `free` of `model` to fit `points` (Levenberg–Marquardt), no
+/// bounds, one numerator width per mode.
 pub fn update_modes(
     model: &ModalModel,
     free: &[usize],
@@ -153,6 +384,34 @@ pub fn update_modes(
     prior: Prior,
     max_iter: usize,
 ) -> Result<UpdateResult> {
+    update_modes_with(
+        model,
+        free,
+        points,
+        &UpdateOptions {
+            prior,
+            max_iter,
+            ..UpdateOptions::default()
+        },
+    )
+}
+
+/// Updates the modes `free` of `model` to fit `points` (Levenberg–Marquardt, projected
+/// on the bounds of `opts`).
+pub fn update_modes_with(
+    model: &ModalModel,
+    free: &[usize],
+    points: &[Points],
+    opts: &UpdateOptions,
+) -> Result<UpdateResult> {
+    let (prior, max_iter) = (opts.prior, opts.max_iter);
+    if let Some(b) = &opts.bounds {
+        if b.len() != free.len() {
+            return Err(Error::BadInput(
+                "modal update: one bound per free mode expected".into(),
+            ));
+        }
+    }
     let lay = Layout {
         free: free.to_vec(),
         n_ch: model.channels.len(),
@@ -163,6 +422,8 @@ pub fn update_modes(
             chi_before: 0.0,
             chi_after: 0.0,
             iterations: 0,
+            at_bound: Vec::new(),
+            posterior_sd: Vec::new(),
         });
     }
     // numerator scale per free mode: the largest |b0| + |b1| ω over the channels
@@ -194,9 +455,28 @@ pub fn update_modes(
         .map(|i| match i % per {
             0 => prior.ln_wn,
             1 => prior.ln_zeta,
+            r if opts.shape_prior.is_some() => {
+                let j = i / per;
+                let c = (r - 2) / 2;
+                let w = opts
+                    .shape_prior
+                    .as_ref()
+                    .and_then(|w| w.get(c).copied())
+                    .unwrap_or(prior.num_rel);
+                w * shape_scale(model, c, lay.free[j], scale[j]) / scale[j]
+            }
             _ => prior.num_rel,
         })
         .collect();
+    let clamp = |t: &mut [f64]| {
+        if let Some(b) = &opts.bounds {
+            for (j, bj) in b.iter().enumerate() {
+                let o = j * per;
+                t[o] = t[o].clamp(bj.ln_wn.0, bj.ln_wn.1);
+                t[o + 1] = t[o + 1].clamp(bj.ln_zeta.0, bj.ln_zeta.1);
+            }
+        }
+    };
     let chan_idx: Vec<Option<usize>> = points
         .iter()
         .map(|p| model.channel_index(p.channel))
@@ -291,7 +571,8 @@ pub fn update_modes(
                 lambda *= 10.0;
                 continue;
             };
-            let cand: Vec<f64> = theta.iter().zip(step.iter()).map(|(t, s)| t + s).collect();
+            let mut cand: Vec<f64> = theta.iter().zip(step.iter()).map(|(t, s)| t + s).collect();
+            clamp(&mut cand);
             let (rc, mc) = residuals(&cand);
             let cc = rc.norm_squared();
             if cc.is_finite() && cc < cost && mc.is_valid() {
@@ -316,11 +597,43 @@ pub fn update_modes(
             "modal update produced an invalid model".into(),
         ));
     }
+    let at_bound = match &opts.bounds {
+        Some(b) => lay
+            .free
+            .iter()
+            .zip(b)
+            .enumerate()
+            .filter(|(j, (_, bj))| bj.wn_at_bound(theta[j * per]))
+            .map(|(_, (&k, _))| k)
+            .collect(),
+        None => Vec::new(),
+    };
+    // posterior standard deviations of ln ω, ln ζ: (JᵀJ)⁻¹ at the solution (prior rows
+    // included), scaled by the misfit per degree of freedom when that exceeds 1
+    let posterior_sd = if opts.posterior {
+        let jm = jacobian(&theta, &m);
+        let jtj = jm.transpose() * &jm;
+        let s2 =
+            (r.rows(0, n_data).norm_squared() / (n_data as f64 - lay.n() as f64).max(1.0)).max(1.0);
+        let sd = |i: usize, inv: &DMatrix<f64>| (inv[(i, i)].max(0.0) * s2).sqrt();
+        match jtj.cholesky().map(|c| c.inverse()) {
+            Some(inv) => (0..lay.free.len())
+                .map(|j| [sd(j * per, &inv), sd(j * per + 1, &inv)])
+                .collect(),
+            None => (0..lay.free.len())
+                .map(|_| [prior.ln_wn, prior.ln_zeta])
+                .collect(),
+        }
+    } else {
+        Vec::new()
+    };
     Ok(UpdateResult {
         model: m,
         chi_before,
         chi_after,
         iterations: it,
+        at_bound,
+        posterior_sd,
     })
 }
 
@@ -411,5 +724,139 @@ mod tests {
         );
         assert_eq!(res.model.modes[0], old.modes[0]);
         assert!(res.chi_after < 0.05 * res.chi_before);
+    }
+
+    fn points_of(model: &ModalModel, ci: usize, freqs: &[f64], rel: f64) -> Points {
+        let h: Vec<Complex64> = freqs.iter().map(|&f| model.eval_hz(ci, f)).collect();
+        Points {
+            channel: model.channels[ci].channel,
+            freqs_hz: freqs.to_vec(),
+            sigma: h.iter().map(|v| rel * v.norm() + 1e-15).collect(),
+            h,
+        }
+    }
+
+    /// Data with the second mode moved below the first: unbounded, the update follows
+    /// it; with identity bounds the mode stops at the geometric midpoint to its neighbour
+    /// and says it ended on its bound.
+    #[test]
+    fn identity_bounds_stop_a_mode_at_its_neighbour() {
+        let old = two_modes(120.0);
+        let truth = two_modes(95.0);
+        let freqs: Vec<f64> = (0..60).map(|i| 85.0 + i as f64).collect();
+        let pts = [points_of(&truth, 0, &freqs, 0.01)];
+        let free = [1];
+        let loose = update_modes(&old, &free, &pts, Prior::default(), 80).unwrap();
+        assert!(
+            loose.model.modes[1].freq_hz() < 100.0,
+            "{:?}",
+            loose.model.modes
+        );
+        let b = ModeBounds::identity(&old, 1, &Prior::default());
+        let mid = (100.0f64 * 120.0).sqrt();
+        assert!((b.ln_wn.0.exp() / (2.0 * PI) - mid).abs() < 1e-9);
+        let opts = UpdateOptions::keeping_identity(&old, &free, Prior::default());
+        let kept = update_modes_with(&old, &free, &pts, &opts).unwrap();
+        let f1 = kept.model.modes[1].freq_hz();
+        assert!(f1 >= mid - 1e-6, "{f1} Hz passed its neighbour");
+        assert_eq!(kept.at_bound, vec![1]);
+        assert_eq!(kept.model.modes[0], old.modes[0]);
+        // damping bounds are physical and hold the start
+        assert!(b.ln_zeta.0 <= 0.03f64.ln() && b.ln_zeta.1 >= 0.03f64.ln());
+        assert!(b.ln_zeta.1 <= ZETA_RANGE.1.ln() + 1e-12);
+    }
+
+    /// The model discrepancy is set by the bulk of the lines: a 2 % scatter (per component)
+    /// on every line
+    /// gives ε ≈ 2 % whether or not a tenth of the lines also carry a large change.
+    #[test]
+    fn discrepancy_is_robust_to_a_local_change() {
+        let model = two_modes(300.0);
+        let freqs: Vec<f64> = (0..400).map(|i| 50.0 + i as f64).collect();
+        let mut lcg = crate::test_util::Lcg(7);
+        let scatter: Vec<Complex64> = freqs
+            .iter()
+            .map(|_| Complex64::new(0.07 * lcg.uniform(), 0.07 * lcg.uniform()))
+            .collect();
+        let mut pts = points_of(&model, 0, &freqs, 1e-6);
+        for (h, e) in pts.h.iter_mut().zip(&scatter) {
+            *h *= Complex64::new(1.0, 0.0) + e;
+        }
+        let eps = discrepancy(&model, std::slice::from_ref(&pts))[0];
+        assert!((0.015..0.03).contains(&eps), "ε {eps}");
+        // a shifted mode changes the lines around 300 Hz (a tenth of them) a lot
+        let worn = two_modes(290.0);
+        for (i, f) in freqs.iter().enumerate() {
+            if (280.0..320.0).contains(f) {
+                pts.h[i] = worn.eval_hz(0, *f) * (Complex64::new(1.0, 0.0) + scatter[i]);
+            }
+        }
+        let eps2 = discrepancy(&model, std::slice::from_ref(&pts))[0];
+        assert!(eps2 < 1.3 * eps, "ε {eps} -> {eps2}");
+        // the errors grow by it: σ² + ε² |F|²
+        let with = with_discrepancy(&model, std::slice::from_ref(&pts), &[eps2]);
+        for (a, b) in with[0].sigma.iter().zip(&pts.sigma) {
+            assert!(a >= b);
+        }
+    }
+
+    /// The data's cross channel, known no better than the twin's discrepancy there, says
+    /// a y-mode has a large x component: without the shape prior the update rotates the
+    /// mode; with it the cross residue stays near its small previous value, while the
+    /// frequency follows the data.
+    #[test]
+    fn shape_prior_keeps_a_mode_direction() {
+        let mk = |cross: f64| ModalModel {
+            modes: vec![Mode::from_hz(100.0, 0.02), Mode::from_hz(200.0, 0.02)],
+            channels: [(Axis::X, [1.0, 1e-3]), (Axis::Y, [cross, 1.0])]
+                .iter()
+                .map(|&(o, n)| ChannelModel {
+                    channel: Channel::new(o, Axis::Y),
+                    num: n
+                        .iter()
+                        .map(|v| ModeNum {
+                            b0: v * 1e-2 * (2.0 * PI * 150.0).powi(2),
+                            b1: 0.0,
+                        })
+                        .collect(),
+                    d: 0.0,
+                })
+                .collect(),
+        };
+        // channel 0 is x per y (the cross channel here), channel 1 y per y
+        let old = mk(0.0);
+        let mut truth = mk(0.0);
+        truth.channels[0].num[1].b0 = 0.3 * truth.channels[1].num[1].b0;
+        truth.modes[1].wn *= 0.97;
+        let freqs: Vec<f64> = (0..80).map(|i| 160.0 + i as f64).collect();
+        // the cross channel with an error the size of the model's discrepancy there (a
+        // third of the direct channel), the direct one within 1 %
+        let direct = points_of(&truth, 1, &freqs, 0.01);
+        let mut cross = points_of(&truth, 0, &freqs, 0.01);
+        for (s, h) in cross.sigma.iter_mut().zip(&direct.h) {
+            *s = 0.3 * h.norm();
+        }
+        let pts = [cross, direct];
+        let free = [1];
+        let loose = update_modes(&old, &free, &pts, Prior::default(), 80).unwrap();
+        let ratio = |m: &ModalModel| m.channels[0].num[1].b0 / m.channels[1].num[1].b0;
+        assert!(ratio(&loose.model) > 0.1, "loose: {}", ratio(&loose.model));
+        let kept = update_modes_with(
+            &old,
+            &free,
+            &pts,
+            &UpdateOptions::keeping_identity(&old, &free, Prior::default()),
+        )
+        .unwrap();
+        assert!(
+            ratio(&kept.model).abs() < 0.01,
+            "kept: {}",
+            ratio(&kept.model)
+        );
+        // the frequency still follows the data
+        let f = kept.model.modes[1].freq_hz();
+        assert!((f / 194.0 - 1.0).abs() < 0.01, "{f} Hz");
+        assert_eq!(kept.posterior_sd.len(), 1);
+        assert!(kept.posterior_sd[0][0] > 0.0 && kept.posterior_sd[0][0] < 0.2);
     }
 }

@@ -10,7 +10,12 @@
 //!   (Levenberg–Marquardt, finite-difference Jacobian),
 //! - their numerators in every channel the data excites, and an offset per output and
 //!   record, solved by linear least squares at every step (variable projection),
-//! - every other mode and the feedthrough held at the starting model.
+//! - every other mode and the feedthrough held at the starting model,
+//! - optionally ([`OeOptions::prior`], [`OeOptions::bounds`]) the modal update's prior
+//!   (centred on the previous model: ln ω, ln ζ and the numerators with the mode's
+//!   direction, see [`crate::modal_update::UpdateOptions::shape_prior`]) and its identity
+//!   bounds, so this stage cannot undo what the modal update kept (a mode passing its
+//!   neighbour, a damping beyond the physical range).
 //!
 //! The response is computed in the frequency domain on the zero-padded record: the exact
 //! response, from rest, to the band-limited sampled force — no hold assumption between
@@ -20,6 +25,7 @@
 
 use crate::axis::Axis;
 use crate::error::{Error, Result};
+use crate::modal_update::{num_size, shape_scale, ModeBounds, Prior};
 use crate::model::ModalModel;
 use crate::timeseries::{ResponseKind, TimeSeries};
 use nalgebra::{DMatrix, DVector};
@@ -348,6 +354,11 @@ struct Problem<'a> {
     with_noise: bool,
     /// Scale of the prior residuals: the RMS of one weighted residual at the start.
     prior_scale: f64,
+    /// Prior of the free modes' θ (ln ω, ln ζ per free mode): centre and width.
+    mode_prior: Option<Vec<(f64, f64)>>,
+    /// Per output: the numerators' prior centre and inverse variance (order of
+    /// [`Problem::spec`]).
+    num_prior: Option<Vec<(DVector<f64>, DVector<f64>)>>,
 }
 
 /// Per (input, free mode): the `[q, q̇]` columns of one record (fitted samples).
@@ -548,6 +559,7 @@ impl Problem<'_> {
     /// (targets, columns), the weighted residual and the prior residuals.
     fn combine(&self, theta: &[f64], per_rec: &[PartRef]) -> Eval {
         let mut r = Vec::new();
+        let mut prior_r = Vec::new();
         let mut beta = Vec::new();
         for (oi, (_, _, w)) in self.outputs.iter().enumerate() {
             let spec = self.spec(oi);
@@ -558,6 +570,16 @@ impl Problem<'_> {
                 if let Some((a, y)) = &part.normal[oi] {
                     ata += a;
                     aty += y;
+                }
+            }
+            // the numerators' prior: ridge towards the previous model, in the data's units
+            // (residual weight w, prior residual scale `prior_scale`)
+            let ridge = self.num_prior.as_ref().map(|np_| &np_[oi]);
+            if let Some((b0, iv)) = ridge {
+                let k2 = (self.prior_scale / w).powi(2);
+                for a in 0..np {
+                    ata[(a, a)] += k2 * iv[a];
+                    aty[a] += k2 * iv[a] * b0[a];
                 }
             }
             // column scaling, then a least-squares solve robust to unused columns
@@ -590,9 +612,20 @@ impl Problem<'_> {
                 }
                 r.extend(res.into_iter().map(|e| e * w));
             }
+            if let Some((b0, iv)) = ridge {
+                for a in 0..np {
+                    prior_r.push(self.prior_scale * (bo[a] - b0[a]) * iv[a].sqrt());
+                }
+            }
             beta.push(bo);
         }
         let n_data = r.len();
+        r.extend(prior_r);
+        if let Some(mp) = &self.mode_prior {
+            for (t, (c, sd)) in theta.iter().zip(mp) {
+                r.push(self.prior_scale * (t - c) / sd);
+            }
+        }
         if self.with_noise {
             for (ri, p) in self.recs.iter().enumerate() {
                 for j in 0..p.forces.len() {
@@ -636,8 +669,20 @@ fn sumsq(r: &[f64]) -> f64 {
     dot(r, r)
 }
 
+/// A prior of the output-error stage: the modal update's, centred on the previous model.
+#[derive(Debug, Clone)]
+pub struct OePrior {
+    /// The previous model (same modes and channels as the start).
+    pub centre: ModalModel,
+    /// Widths of ln ω and ln ζ (and of the numerators where `num_rel` has none).
+    pub widths: Prior,
+    /// Relative width of the numerators per channel (model channel order), as the
+    /// shape prior of [`crate::modal_update::UpdateOptions::shape_prior`].
+    pub num_rel: Vec<f64>,
+}
+
 /// Options of [`refine`].
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub struct OeOptions {
     /// Levenberg–Marquardt iterations at most.
     pub max_iter: usize,
@@ -647,6 +692,12 @@ pub struct OeOptions {
     /// Samples used per record at most (the first ones; memory and time grow with it:
     /// about 50 bytes per sample per free mode and force).
     pub max_samples: usize,
+    /// Bounds of every free mode (same order as `free`); `None`: the frequency within
+    /// ±30 % of the start, the damping ratio within 1e-5..0.5.
+    pub bounds: Option<Vec<ModeBounds>>,
+    /// Gaussian prior on the free modes (`None`: none). Its residuals are scaled like
+    /// one weighted data residual at the start.
+    pub prior: Option<OePrior>,
 }
 
 impl Default for OeOptions {
@@ -655,6 +706,8 @@ impl Default for OeOptions {
             max_iter: 40,
             force_noise: true,
             max_samples: 1 << 20,
+            bounds: None,
+            prior: None,
         }
     }
 }
@@ -751,7 +804,67 @@ pub fn refine(
         noise_at,
         with_noise: opts.force_noise,
         prior_scale: 0.0,
+        mode_prior: None,
+        num_prior: None,
     };
+    if let Some(b) = &opts.bounds {
+        if b.len() != free.len() {
+            return Err(Error::BadInput(
+                "output-error refit: one bound per free mode expected".into(),
+            ));
+        }
+    }
+    if let Some(pr) = &opts.prior {
+        let c = &pr.centre;
+        if c.modes.len() != start.modes.len() || c.channels.len() != start.channels.len() {
+            return Err(Error::BadInput(
+                "output-error refit: the prior's model does not match the start".into(),
+            ));
+        }
+        prob.mode_prior = Some(
+            free.iter()
+                .flat_map(|&k| {
+                    [
+                        (c.modes[k].wn.ln(), pr.widths.ln_wn),
+                        (c.modes[k].zeta.max(1e-6).ln(), pr.widths.ln_zeta),
+                    ]
+                })
+                .collect(),
+        );
+        let mode_scale: Vec<f64> = free
+            .iter()
+            .map(|&k| {
+                (0..c.channels.len())
+                    .map(|ci| num_size(c, ci, k))
+                    .fold(0.0, f64::max)
+                    .max(1e-300)
+            })
+            .collect();
+        prob.num_prior = Some(
+            (0..prob.outputs.len())
+                .map(|oi| {
+                    let spec = prob.spec(oi);
+                    let mut b0 = DVector::zeros(spec.len());
+                    let mut iv = DVector::zeros(spec.len());
+                    for (a, &(ch, j, d)) in spec.iter().enumerate() {
+                        let k = free[j];
+                        let n = c.channels[ch].num[k];
+                        let rel = pr.num_rel.get(ch).copied().unwrap_or(pr.widths.num_rel);
+                        let sd = rel * shape_scale(c, ch, k, mode_scale[j]);
+                        // b1 multiplies s: its width is the numerator's size over ω
+                        let (v, sd) = if d == 0 {
+                            (n.b0, sd)
+                        } else {
+                            (n.b1, sd / c.modes[k].wn)
+                        };
+                        b0[a] = v;
+                        iv[a] = 1.0 / (sd * sd).max(1e-300);
+                    }
+                    (b0, iv)
+                })
+                .collect(),
+        );
+    }
     let mut theta: Vec<f64> = free
         .iter()
         .flat_map(|&k| [start.modes[k].wn.ln(), start.modes[k].zeta.max(1e-6).ln()])
@@ -766,11 +879,19 @@ pub fn refine(
     let mut cost = sumsq(&cur.r);
     let mut lambda = 1e-3;
     let mut iterations = 0;
-    // bounds: frequency within ±30 % of the start, damping 1e-5..0.5, noise floor 0..0.9
+    // bounds: the given ones, else frequency within ±30 % of the start, damping
+    // 1e-5..0.5; noise floor 0..0.9
     let clamp = |t: &mut Vec<f64>| {
         for j in 0..n_modes / 2 {
-            t[2 * j] = t[2 * j].clamp(theta0[2 * j] - 0.3, theta0[2 * j] + 0.3);
-            t[2 * j + 1] = t[2 * j + 1].clamp(1e-5f64.ln(), 0.5f64.ln());
+            let (w, z) = match &opts.bounds {
+                Some(b) => (b[j].ln_wn, b[j].ln_zeta),
+                None => (
+                    (theta0[2 * j] - 0.3, theta0[2 * j] + 0.3),
+                    (1e-5f64.ln(), 0.5f64.ln()),
+                ),
+            };
+            t[2 * j] = t[2 * j].clamp(w.0, w.1);
+            t[2 * j + 1] = t[2 * j + 1].clamp(z.0, z.1);
         }
         for v in t.iter_mut().skip(n_modes) {
             *v = v.clamp(0.0, 0.9);
@@ -873,11 +994,9 @@ mod tests {
         assert_eq!(fast_len(97), 100);
     }
 
-    /// A lightly damped mode simulated exactly (frequency domain, band-limited noise
-    /// force): starting 0.5 % off in frequency and 30 % off in damping, the refinement
-    /// recovers both to 1e-4 relative.
-    #[test]
-    fn recovers_a_light_mode_from_a_noise_record() {
+    /// A lightly damped mode and a damped one, and a record of their exact response
+    /// (frequency domain) to a white force.
+    fn light_mode_record() -> (ModalModel, TimeSeries) {
         let truth = ModalModel {
             modes: vec![Mode::from_hz(50.0, 0.003), Mode::from_hz(180.0, 0.02)],
             channels: vec![ChannelModel {
@@ -916,6 +1035,15 @@ mod tests {
             response_kind: Some(ResponseKind::Displacement),
             ..TimeSeries::default()
         };
+        (truth, ts)
+    }
+
+    /// A lightly damped mode simulated exactly (frequency domain, band-limited noise
+    /// force): starting 0.5 % off in frequency and 30 % off in damping, the refinement
+    /// recovers both to 1e-4 relative.
+    #[test]
+    fn recovers_a_light_mode_from_a_noise_record() {
+        let (truth, ts) = light_mode_record();
         let mut start = truth.clone();
         start.modes[0].wn *= 1.005;
         start.modes[0].zeta *= 1.3;
@@ -948,5 +1076,66 @@ mod tests {
         .unwrap();
         let m0 = short.model.modes[0];
         assert!((m0.wn / truth.modes[0].wn - 1.0).abs() < 1e-4, "{m0:?}");
+    }
+
+    /// Bounds hold the refinement (the truth lies outside them: the frequency ends on
+    /// the bound), and a prior centred on the truth with the same data changes nothing
+    /// measurable: the record outweighs it.
+    #[test]
+    fn bounds_hold_and_the_prior_weighs_like_one_residual() {
+        let (truth, ts) = light_mode_record();
+        let mut start = truth.clone();
+        start.modes[0].wn *= 1.005;
+        let lw = start.modes[0].wn.ln();
+        let lz = start.modes[0].zeta.ln();
+        let bounded = refine(
+            &start,
+            &[0],
+            std::slice::from_ref(&ts),
+            OeOptions {
+                bounds: Some(vec![ModeBounds {
+                    ln_wn: (lw - 1e-3, lw + 1e-3),
+                    ln_zeta: (lz - 0.5, lz + 0.5),
+                }]),
+                ..OeOptions::default()
+            },
+        )
+        .unwrap();
+        let w = bounded.model.modes[0].wn.ln();
+        assert!((w - (lw - 1e-3)).abs() < 1e-9, "{w} vs {}", lw - 1e-3);
+        let with_prior = refine(
+            &start,
+            &[0],
+            std::slice::from_ref(&ts),
+            OeOptions {
+                prior: Some(OePrior {
+                    centre: truth.clone(),
+                    widths: Prior::default(),
+                    num_rel: vec![0.5],
+                }),
+                ..OeOptions::default()
+            },
+        )
+        .unwrap();
+        let m0 = with_prior.model.modes[0];
+        assert!((m0.wn / truth.modes[0].wn - 1.0).abs() < 1e-4, "{m0:?}");
+        assert!(with_prior.model.is_valid());
+        // a prior model that does not match the start is refused
+        let mut other = truth.clone();
+        other.modes.pop();
+        assert!(refine(
+            &start,
+            &[0],
+            std::slice::from_ref(&ts),
+            OeOptions {
+                prior: Some(OePrior {
+                    centre: other,
+                    widths: Prior::default(),
+                    num_rel: vec![0.5],
+                }),
+                ..OeOptions::default()
+            },
+        )
+        .is_err());
     }
 }

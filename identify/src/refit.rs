@@ -10,15 +10,37 @@
 //!    W(ω) is 1 at inserted points and far from them, 0 between inserted points, faded in
 //!    over an uncertainty range around them and near 0 Hz; the rational fit is refined
 //!    from the previous model.
-//! 3. **mtwin's update** ([`RefitMethod::Modal`], the default): no stepped FRF. Only
-//!    modes whose response dominates some well-excited line are candidates; they are
-//!    freed one at a time (forward selection: the candidate that lowers the misfit most,
-//!    kept while it lowers it by ≥ 1 %), all others held; the free modes' frequency,
-//!    damping and residues are fitted directly to the operating cross-spectral FRF
-//!    points, each weighted by its standard error from coherence, with a weak prior
-//!    towards the previous model ([`crate::modal_update`]). The standard errors scale
-//!    with |H| from the neighbourhood, then (a second, reweighted pass) from the updated
-//!    model — never from the line's own noisy value, which would bias peaks low.
+//! 3. **mtwin's update** ([`RefitMethod::Modal`]; [`RefitMethod::Time`], the default, adds
+//!    step 3b): no stepped FRF. The free modes' frequency, damping and residues are fitted
+//!    directly to the operating cross-spectral FRF points ([`crate::modal_update`]), all
+//!    other modes held, with a prior towards the previous model. What keeps it honest on
+//!    data the twin was not made from:
+//!    - **Errors that include the twin's own discrepancy.** Each point's noise error comes
+//!      from coherence (scaled with |H| from the neighbourhood, then — a second,
+//!      reweighted pass — from the updated model, never from the line's own noisy value,
+//!      which would bias peaks low) and is at least the multiple-input standard error of
+//!      the spectra. On top comes, per channel, the relative model discrepancy of the
+//!      previous model, estimated robustly (the median misfit: the lines a real change
+//!      affects are fewer than half) — without it, the misfit of a twin identified from
+//!      other data dwarfs the prior and free modes bend to absorb it.
+//!    - **A prior from the twin's own uncertainty.** The frequency and damping priors are
+//!      wide (wear moves them); a residue may change relative to itself by the twin's
+//!      measured discrepancy in that channel (wear does not change a mode's shape over
+//!      its modal mass much, and the twin knows its residues as well as its FRF matches).
+//!    - **Identity bounds.** A mode's frequency stays between its neighbours (geometric
+//!      midpoints), its damping within the physical range; a mode whose fit ends on a
+//!      frequency bound is not updated (the data ask for something else).
+//!    - **Held-out validation.** Every record is cut in two halves; a mode is freed only
+//!      if its update fitted on one half lowers the misfit of the other half (both ways)
+//!      by ≥ 1 % — forward selection among the modes whose resonance the data excite.
+//!      When no mode earns that, or the records are too short to split, the previous
+//!      modes are kept and the report says so (the history still records the check).
+//!
+//!    3b. **Output error** ([`crate::output_error`]) on the records themselves refines the
+//!    freed modes (no Welch leakage, force noise floor estimated), with the same prior and
+//!    identity bounds and within a trust region around the modal update (3 posterior
+//!    standard deviations or the Welch resolution); a refinement that ends on the region's
+//!    edge is refused and the modal update stands.
 //! 4. **Position update**: the parameter change found at the operating pose applies in
 //!    full to the measured poses of the grid cell around it (so the twin there carries
 //!    the whole change) and to every other measured pose with weight `exp(-(d/L)²)`
@@ -27,11 +49,15 @@
 //!    pose models is appended; nothing is ever removed.
 
 use crate::axis::Axis;
+use crate::axis::Channel;
 use crate::campaign::channel_fits;
 use crate::error::{Error, Result};
 use crate::frf::{fit_percent_real, Frf};
 use crate::interpolate::{simulate_twin, TwinEvaluator};
-use crate::modal_update::{apply_change, chi, update_modes, Points, Prior};
+use crate::modal_update::{
+    apply_change, chi, discrepancy, update_modes_with, with_discrepancy, ModeBounds, Points, Prior,
+    UpdateOptions, UpdateResult,
+};
 use crate::model::ModalModel;
 use crate::operating::{operating_spectra, OperatingSpectra};
 use crate::rational_fit::{refine_from, FitOptions};
@@ -140,6 +166,33 @@ pub struct RefitReport {
     /// The output-error stage (method `time`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub output_error: Option<crate::output_error::OeSummary>,
+    /// How mtwin's update was validated on held-out data (methods `modal` and `time`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub held_out: Option<HeldOut>,
+}
+
+/// Validation of mtwin's modal update on held-out data: every record is cut in two
+/// halves; the update is fitted on the first halves' spectra and scored on the second
+/// halves' and the other way round (two-fold cross-validation). A mode is updated only
+/// when that lowers the held-out misfit.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct HeldOut {
+    /// How the data were split.
+    pub split: String,
+    /// RMS held-out misfit (in standard errors, model discrepancy included) of the
+    /// previous model (`None` without a split).
+    pub chi_before: Option<f64>,
+    /// The same with the selected modes updated on the other half.
+    pub chi_after: Option<f64>,
+    /// Modes the data excite (candidates).
+    pub candidates: Vec<usize>,
+    /// Candidates refused because their frequency ended on an identity bound (between
+    /// the neighbouring modes): the data ask for something else than this mode moving.
+    pub refused_at_bound: Vec<usize>,
+    /// Relative model discrepancy per channel added to the standard errors.
+    pub discrepancy: Vec<(Channel, f64)>,
+    /// The decision in words.
+    pub note: String,
 }
 
 /// One response axis: the axis, the measured and the simulated samples.
@@ -255,7 +308,10 @@ fn selected_lines(sp: &OperatingSpectra, opts: &RefitOptions) -> Vec<usize> {
 
 /// FRF points at `lines` with their standard errors. The error scales with `|H|` taken
 /// from `mag_model` when given (an iteratively reweighted pass with the updated model),
-/// else from the measured neighbourhood.
+/// else from the measured neighbourhood; it is at least the multiple-input standard error
+/// of the spectra (median over the neighbourhood): a weak cross channel's error follows
+/// the output's whole response, not its own small |H|, and correlated forces (the cutting
+/// forces at the tooth-passing lines) make every channel's estimate less certain.
 fn operating_points(
     sp: &OperatingSpectra,
     lines: &[usize],
@@ -263,7 +319,7 @@ fn operating_points(
     mag_model: Option<&ModalModel>,
 ) -> Vec<Points> {
     let mut pts = Vec::new();
-    for (ch, h) in &sp.h {
+    for ((ch, h), (_, sig)) in sp.h.iter().zip(&sp.sigma) {
         if model.channel_index(*ch).is_none() {
             continue;
         }
@@ -292,9 +348,20 @@ fn operating_points(
                 None => med(&mut h[a..b].iter().map(|v| v.norm()).collect()),
             };
             let rel = OperatingSpectra::rel_error(g, sp.n_avg).max(2e-3);
+            let mimo = if sig.len() == n {
+                med(&mut sig[a..b].to_vec())
+            } else {
+                0.0
+            };
+            // H1 is biased low by noise on the force, by up to the factor γ² (H1 and H2
+            // bracket H, H1/H2 = γ²); averaging does not remove a bias, so it is an error
+            // of its own: |H| (1 − γ²)/γ², with the line's own coherence when higher (a
+            // tooth-passing line's force towers over any noise)
+            let gb = g.max(g_all[l]).clamp(1e-3, 1.0);
+            let bias = mag * (1.0 - gb) / gb;
             p.freqs_hz.push(sp.freqs_hz[l]);
             p.h.push(h[l]);
-            p.sigma.push(rel * mag.max(1e-300));
+            p.sigma.push((rel * mag).max(mimo).hypot(bias).max(1e-300));
         }
         pts.push(p);
     }
@@ -322,55 +389,328 @@ fn enclosing_cell(twin: &Twin, pose: [f64; 3]) -> [(f64, f64); 3] {
     })
 }
 
-/// A freed mode must lower the RMS misfit by this fraction to stay free.
+/// A freed mode must lower the RMS held-out misfit by this fraction to stay free.
 const MIN_MISFIT_GAIN: f64 = 0.01;
 
-/// Forward selection of the modes to update: free the candidate whose update lowers the
-/// misfit most, keep it when the gain is at least [`MIN_MISFIT_GAIN`], repeat. Wear
-/// usually changes one or two modes; freeing every excited mode lets the unchanged ones
-/// absorb estimation noise and leakage, which costs accuracy against the truth.
-fn parsimonious_update(
-    old: &ModalModel,
-    candidates: &[usize],
-    pts: &[Points],
-) -> Result<(crate::modal_update::UpdateResult, Vec<usize>)> {
-    let chi0 = chi(old, pts, 0.0);
-    let mut best = crate::modal_update::UpdateResult {
-        model: old.clone(),
-        chi_before: chi0,
-        chi_after: chi0,
-        iterations: 0,
-    };
-    let mut free: Vec<usize> = Vec::new();
-    loop {
-        let mut round: Option<(usize, crate::modal_update::UpdateResult)> = None;
-        for &k in candidates.iter().filter(|k| !free.contains(k)) {
-            let mut f = free.clone();
-            f.push(k);
-            f.sort_unstable();
-            let r = update_modes(old, &f, pts, Prior::default(), 60)?;
-            if round
-                .as_ref()
-                .is_none_or(|(_, b)| r.chi_after < b.chi_after)
-            {
-                round = Some((k, r));
+/// Averages each half of the data needs for the held-out split.
+const MIN_FOLD_AVERAGES: usize = 4;
+
+/// Smallest relative width of a numerator's prior: the floor of the operating points'
+/// relative standard error (see [`operating_points`]).
+const REL_FLOOR: f64 = 2e-3;
+
+/// The identity-keeping update options for `free` (bounds from `old`), the numerators'
+/// relative prior widths `num_rel` per model channel; no posterior widths.
+fn identity_options(old: &ModalModel, free: &[usize], num_rel: &[f64]) -> UpdateOptions {
+    UpdateOptions {
+        shape_prior: Some(num_rel.to_vec()),
+        posterior: false,
+        ..UpdateOptions::keeping_identity(old, free, Prior::default())
+    }
+}
+
+/// The numerators' relative prior width per channel of `model`: the twin's own relative
+/// discrepancy in that channel, `eps` (per point set of `pts`, see
+/// [`crate::modal_update::discrepancy`]), at least [`REL_FLOOR`]; the default width where
+/// the data have no points. Wear changes a mode's frequency and damping; its residues
+/// (shape over modal mass) the twin knows about as well as its FRF matches the data
+/// where nothing changed.
+fn numerator_widths(model: &ModalModel, pts: &[Points], eps: &[f64]) -> Vec<f64> {
+    model
+        .channels
+        .iter()
+        .map(|c| {
+            pts.iter()
+                .zip(eps)
+                .find(|(p, _)| p.channel == c.channel)
+                .map_or(Prior::default().num_rel, |(_, e)| e.max(REL_FLOOR))
+        })
+        .collect()
+}
+
+/// The resonance region of mode `k` of `model`: a few half-power bandwidths, or 5 % for
+/// a shifted mode (as [`excited_modes`] reaches).
+fn region_of(model: &ModalModel, k: usize) -> (f64, f64) {
+    let m = model.modes[k];
+    let f = m.freq_hz();
+    let reach = (6.0 * m.zeta * f).max(0.05 * f);
+    (f - reach, f + reach)
+}
+
+/// Squared normalised misfit of `model` over the points of `pts` inside any of `regions`,
+/// and their count.
+fn misfit_in(model: &ModalModel, pts: &[Points], regions: &[(f64, f64)]) -> (f64, usize) {
+    let (mut ss, mut n) = (0.0, 0);
+    for p in pts {
+        let Some(ci) = model.channel_index(p.channel) else {
+            continue;
+        };
+        for ((f, h), sg) in p.freqs_hz.iter().zip(&p.h).zip(&p.sigma) {
+            if regions.iter().any(|(lo, hi)| f >= lo && f <= hi) {
+                ss += ((model.eval_hz(ci, *f) - h) / sg).norm_sqr();
+                n += 1;
             }
         }
-        let Some((k, r)) = round else { break };
-        if std::env::var_os("MTWIN_DEBUG_REFIT").is_some() {
-            eprintln!(
-                "refit selection: free {free:?} + {k}: chi {:.4} -> {:.4}",
-                best.chi_after, r.chi_after
-            );
+    }
+    (ss, n)
+}
+
+/// What a free set earns on held-out data: the update fitted on one fold is scored on
+/// the other, both ways.
+struct HeldOutFit {
+    /// RMS misfit over all held-out points, pooled.
+    chi: f64,
+    /// The models fitted on fold 0 and on fold 1.
+    models: [ModalModel; 2],
+    /// Free modes that ended on a frequency bound in either fit.
+    at_bound: Vec<usize>,
+}
+
+impl HeldOutFit {
+    /// Squared misfit over the held-out points in the resonance region of mode `k` (of
+    /// `self`'s models and of `base`'s), `base`'s and `self`'s, and their count.
+    fn local(&self, base: &HeldOutFit, k: usize, folds: &[Vec<Points>; 2]) -> (f64, f64, usize) {
+        let mut acc = (0.0, 0.0, 0);
+        for (fit, score) in [(0, 1), (1, 0)] {
+            let regions = [
+                region_of(&base.models[fit], k),
+                region_of(&self.models[fit], k),
+            ];
+            let (before, n) = misfit_in(&base.models[fit], &folds[score], &regions);
+            let (after, _) = misfit_in(&self.models[fit], &folds[score], &regions);
+            acc = (acc.0 + before, acc.1 + after, acc.2 + n);
         }
-        if r.chi_after > best.chi_after * (1.0 - MIN_MISFIT_GAIN) {
+        acc
+    }
+}
+
+/// The held-out misfit of updating the modes `free` (see [`HeldOutFit`]); `None` when a
+/// fit fails.
+fn held_out_misfit(
+    old: &ModalModel,
+    free: &[usize],
+    folds: &[Vec<Points>; 2],
+    num_rel: &[f64],
+) -> Option<HeldOutFit> {
+    let opts = identity_options(old, free, num_rel);
+    let mut ss = 0.0;
+    let mut at_bound = Vec::new();
+    let mut models = [old.clone(), old.clone()];
+    for (fit, score) in [(0, 1), (1, 0)] {
+        if !free.is_empty() {
+            let r = update_modes_with(old, free, &folds[fit], &opts).ok()?;
+            at_bound.extend(r.at_bound);
+            models[fit] = r.model;
+        }
+        ss += chi(&models[fit], &folds[score], 0.0).powi(2);
+    }
+    at_bound.sort_unstable();
+    at_bound.dedup();
+    Some(HeldOutFit {
+        chi: (ss / 2.0).sqrt(),
+        models,
+        at_bound,
+    })
+}
+
+/// Whether freeing a mode lowers the held-out misfit significantly where it resonates,
+/// from `before` to `after` over `n` points: by [`MIN_MISFIT_GAIN`] and by more than
+/// chance gives there — twice the standard deviation of a χ² with two degrees of freedom
+/// per point, scaled by the misfit per degree of freedom left when that exceeds 1 (the
+/// errors there are then larger than assumed: the twin's or the data's, near a mode the
+/// data excite weakly).
+fn significant_local_gain(before: f64, after: f64, n: usize) -> bool {
+    let dof = 2.0 * n as f64;
+    let scale = (after / dof.max(1.0)).max(1.0);
+    let chance = 2.0 * (2.0 * dof).sqrt() * scale;
+    n > 0 && after <= before * (1.0 - MIN_MISFIT_GAIN).powi(2) && before - after > chance
+}
+
+/// What [`validated_selection`] chose.
+struct Selection {
+    free: Vec<usize>,
+    chi_before: f64,
+    chi_after: f64,
+    refused_at_bound: Vec<usize>,
+}
+
+/// Forward selection of the modes to update, judged on held-out data: free the candidate
+/// whose update (fitted on one half of the data) lowers the misfit of the other half
+/// most, keep it when the gain is at least [`MIN_MISFIT_GAIN`], repeat. A candidate is
+/// refused when its frequency ends on an identity bound, or when freeing it does not
+/// lower the held-out misfit significantly in its own resonance region
+/// ([`significant_local_gain`]): the evidence about a mode lies where it resonates; a gain
+/// only elsewhere is a mode bent into a broadband correction of the twin's discrepancy,
+/// a gain on a handful of points is noise. Wear usually changes one or two modes; freeing
+/// every excited mode lets the unchanged ones absorb estimation noise and model
+/// discrepancy, which costs accuracy against the truth — held-out data show that.
+/// `None` without usable held-out data (no split, or a half without points).
+fn validated_selection(
+    old: &ModalModel,
+    candidates: &[usize],
+    folds: Option<&[Vec<Points>; 2]>,
+    num_rel: &[f64],
+) -> Option<Selection> {
+    let folds = folds?;
+    if folds.iter().any(|f| f.iter().all(|p| p.h.is_empty())) {
+        return None;
+    }
+    let mut current = held_out_misfit(old, &[], folds, num_rel)?;
+    let mut sel = Selection {
+        free: Vec::new(),
+        chi_before: current.chi,
+        chi_after: current.chi,
+        refused_at_bound: Vec::new(),
+    };
+    let debug = std::env::var_os("MTWIN_DEBUG_REFIT").is_some();
+    loop {
+        let mut round: Option<(usize, HeldOutFit)> = None;
+        let open: Vec<usize> = candidates
+            .iter()
+            .copied()
+            .filter(|k| !sel.free.contains(k) && !sel.refused_at_bound.contains(k))
+            .collect();
+        for k in open {
+            let mut f = sel.free.clone();
+            f.push(k);
+            f.sort_unstable();
+            let Some(h) = held_out_misfit(old, &f, folds, num_rel) else {
+                continue;
+            };
+            if h.at_bound.contains(&k) {
+                sel.refused_at_bound.push(k);
+                continue;
+            }
+            if !h.at_bound.is_empty() {
+                // an earlier choice pushed onto its bound together with k: not this set
+                continue;
+            }
+            let (before, after, n) = h.local(&current, k, folds);
+            let ok = significant_local_gain(before, after, n);
+            if debug {
+                eprintln!(
+                    "refit selection: {:?} + {k}: held-out chi {:.4} -> {:.4}; where {k} \
+                     resonates {n} points, misfit² {before:.1} -> {after:.1}{}",
+                    sel.free,
+                    current.chi,
+                    h.chi,
+                    if ok { "" } else { " (not significant)" }
+                );
+            }
+            if ok && round.as_ref().is_none_or(|(_, b)| h.chi < b.chi) {
+                round = Some((k, h));
+            }
+        }
+        let Some((k, h)) = round else { break };
+        if h.chi > current.chi * (1.0 - MIN_MISFIT_GAIN) {
             break;
         }
-        free.push(k);
-        best = r;
+        sel.free.push(k);
+        sel.free.sort_unstable();
+        sel.chi_after = h.chi;
+        current = h;
     }
-    best.chi_before = chi0;
-    Ok((best, free))
+    Some(sel)
+}
+
+/// Bounds of the output-error stage for the modes `free` updated to `res`: the identity
+/// bounds of the previous model, and a trust region around the modal update. The output
+/// error corrects what the Welch spectra cannot resolve (the Hann window's leakage, which
+/// moves a peak by less than a line and widens it by about 1.44 lines); it may not
+/// relocate a mode, e.g. onto a resonance of an axis the twin does not model (the time
+/// records carry every force and response, the twin only some channels). The region is
+/// the larger of 3 posterior standard deviations and that resolution: ln ω within
+/// ln(1 + df/f), ln ζ within ln(1 + 1.44 df / (2 ζ f)).
+fn refinement_bounds(
+    old: &ModalModel,
+    res: &UpdateResult,
+    free: &[usize],
+    df_hz: f64,
+) -> Vec<ModeBounds> {
+    free.iter()
+        .enumerate()
+        .map(|(j, &k)| {
+            let id = ModeBounds::identity(old, k, &Prior::default());
+            let m = res.model.modes[k];
+            let (lw, lz) = (m.wn.ln(), m.zeta.max(1e-6).ln());
+            let [sw, sz] = res
+                .posterior_sd
+                .get(j)
+                .copied()
+                .unwrap_or([f64::INFINITY; 2]);
+            let f = m.freq_hz().max(1e-300);
+            let dw = (3.0 * sw).max((1.0 + df_hz / f).ln());
+            let dz = (3.0 * sz).max((1.0 + 1.44 * df_hz / (2.0 * m.zeta.max(1e-6) * f)).ln());
+            let cut =
+                |(a, b): (f64, f64), c: f64, d: f64| ((c - d).max(a).min(c), (c + d).min(b).max(c));
+            ModeBounds {
+                ln_wn: cut(id.ln_wn, lw, dw),
+                ln_zeta: cut(id.ln_zeta, lz, dz),
+            }
+        })
+        .collect()
+}
+
+/// The held-out split: every record's first halves and second halves, with their
+/// spectra and coherent lines. The halves' Welch segments are those of the whole when
+/// each half then gives at least [`MIN_FOLD_AVERAGES`] averages, else halved (twice at
+/// most): the check needs averages more than resolution, and a model is scored at any
+/// line.
+struct Halves {
+    spectra: [OperatingSpectra; 2],
+    lines: [Vec<usize>; 2],
+}
+
+fn split_halves(records: &[TimeSeries], nfft: usize, opts: &RefitOptions) -> Option<Halves> {
+    let half = |second: bool| -> Vec<TimeSeries> {
+        records
+            .iter()
+            .map(|r| {
+                let h = r.len() / 2;
+                if second {
+                    crate::diagnose::slice(r, h, r.len())
+                } else {
+                    crate::diagnose::slice(r, 0, h)
+                }
+            })
+            .collect()
+    };
+    let recs = [half(false), half(true)];
+    let mut seg = nfft;
+    for _ in 0..3 {
+        if seg < 64 {
+            break;
+        }
+        let a = operating_spectra(&recs[0], seg).ok()?;
+        let b = operating_spectra(&recs[1], seg).ok()?;
+        if a.n_avg >= MIN_FOLD_AVERAGES && b.n_avg >= MIN_FOLD_AVERAGES {
+            let lines = [coherent_lines(&a, opts), coherent_lines(&b, opts)];
+            return Some(Halves {
+                spectra: [a, b],
+                lines,
+            });
+        }
+        seg /= 2;
+    }
+    None
+}
+
+/// The output-error stage's options: the modal update's prior centred on `old`
+/// (numerators' relative widths `num_rel`), and `bounds` ([`refinement_bounds`]).
+fn oe_options(
+    old: &ModalModel,
+    bounds: &[ModeBounds],
+    num_rel: &[f64],
+) -> crate::output_error::OeOptions {
+    crate::output_error::OeOptions {
+        bounds: Some(bounds.to_vec()),
+        prior: Some(crate::output_error::OePrior {
+            centre: old.clone(),
+            widths: Prior::default(),
+            num_rel: num_rel.to_vec(),
+        }),
+        ..Default::default()
+    }
 }
 
 /// Modes the operating data can tell about: the mode dominates (≥ 30 % of |H|) at some
@@ -572,6 +912,7 @@ pub fn refit(
         modes: Vec::new(),
         pose_weights: Vec::new(),
         output_error: None,
+        held_out: None,
     };
     if !(drifted || opts.force) {
         return Ok((twin.clone(), report));
@@ -592,20 +933,143 @@ pub fn refit(
     let (new, new_frf) = match opts.method {
         RefitMethod::Modal | RefitMethod::Time => {
             let lines_c = coherent_lines(&sp, opts);
-            let pts = operating_points(&sp, &lines_c, &old, None);
             report.lines_hz = lines_c.iter().map(|&l| sp.freqs_hz[l]).collect();
+            // noise errors, then the previous model's discrepancy per channel on top
+            let noise = operating_points(&sp, &lines_c, &old, None);
+            let eps = discrepancy(&old, &noise);
+            let pts = with_discrepancy(&old, &noise, &eps);
             let candidates = excited_modes(&old, &pts);
-            let (first, free) = parsimonious_update(&old, &candidates, &pts)?;
-            // reweighted pass: standard errors from the updated model's |H|
-            let pts2 = operating_points(&sp, &lines_c, &old, Some(&first.model));
-            let res = update_modes(&old, &free, &pts2, Prior::default(), 60)?;
+            let halves = split_halves(records, nfft, opts);
+            let folds = halves.as_ref().map(|h| {
+                [0, 1].map(|i| {
+                    let noise = operating_points(&h.spectra[i], &h.lines[i], &old, None);
+                    with_discrepancy(&old, &noise, &eps)
+                })
+            });
+            let num_rel = numerator_widths(&old, &pts, &eps);
+            let sel = validated_selection(&old, &candidates, folds.as_ref(), &num_rel);
+            let mut held = HeldOut {
+                split: if sel.is_some() {
+                    "two-fold: the update fitted on every record's first half scored on the \
+                     second halves, and the other way round"
+                } else {
+                    "none: the records are too short to hold a half out (or a half has no \
+                     coherent line)"
+                }
+                .into(),
+                chi_before: sel.as_ref().map(|s| s.chi_before),
+                chi_after: sel.as_ref().map(|s| s.chi_after),
+                candidates: candidates.clone(),
+                refused_at_bound: sel
+                    .as_ref()
+                    .map_or_else(Vec::new, |s| s.refused_at_bound.clone()),
+                discrepancy: pts.iter().map(|p| p.channel).zip(eps.clone()).collect(),
+                note: String::new(),
+            };
+            // the update on all the data, then a reweighted pass (errors from the updated
+            // model's |H|, its own discrepancy); a mode that ends on an identity bound
+            // there is held too
+            let mut free = sel.map_or_else(Vec::new, |s| s.free);
+            let res = loop {
+                if free.is_empty() {
+                    break None;
+                }
+                let uo = UpdateOptions {
+                    posterior: true,
+                    ..identity_options(&old, &free, &num_rel)
+                };
+                let first = update_modes_with(&old, &free, &pts, &uo)?;
+                let noise2 = operating_points(&sp, &lines_c, &old, Some(&first.model));
+                let eps2 = discrepancy(&first.model, &noise2);
+                let pts2 = with_discrepancy(&first.model, &noise2, &eps2);
+                let res = update_modes_with(&old, &free, &pts2, &uo)?;
+                let stuck: Vec<usize> = first
+                    .at_bound
+                    .iter()
+                    .chain(&res.at_bound)
+                    .copied()
+                    .collect();
+                if stuck.is_empty() {
+                    break Some(res);
+                }
+                held.refused_at_bound.extend(&stuck);
+                free.retain(|k| !stuck.contains(k));
+            };
+            held.refused_at_bound.sort_unstable();
+            held.refused_at_bound.dedup();
+            let Some(res) = res else {
+                held.note = match held.chi_before {
+                    _ if held.candidates.is_empty() => "the data excite no mode of the twin \
+                                                        (no coherent line near a resonance): \
+                                                        the previous modes are kept"
+                        .into(),
+                    None => "no held-out data to validate an update on (record longer): the \
+                             previous modes are kept"
+                        .into(),
+                    Some(c) => format!(
+                        "no update of the excited modes {:?} lowers the held-out misfit \
+                         ({c:.3} σ) by {:.0} %, significantly where the mode resonates and \
+                         within its identity bounds: the previous modes are kept",
+                        held.candidates,
+                        100.0 * MIN_MISFIT_GAIN
+                    ),
+                };
+                report.held_out = Some(held);
+                let mut out = twin.clone();
+                push_history(&mut out, twin, records, &report, opts, pose);
+                return Ok((out, report));
+            };
+            held.note = format!(
+                "modes {free:?} updated: held-out misfit {:.3} σ -> {:.3} σ",
+                held.chi_before.unwrap_or(f64::NAN),
+                held.chi_after.unwrap_or(f64::NAN)
+            );
+            report.held_out = Some(held);
             let model = if opts.method == RefitMethod::Time {
-                // the modal update stands when the output-error stage cannot run
-                // (the report then has no `output_error`)
-                match crate::output_error::refine(&res.model, &free, records, Default::default()) {
+                // the same prior and identity bounds as the modal update, centred on the
+                // previous model, within a trust region around the update; a refinement
+                // that ends on the region's edge wants to relocate a mode, not refine it,
+                // and is refused: the modal update stands, as when the stage cannot run
+                // (the report then has no `output_error`; the held-out note says why)
+                let bounds = refinement_bounds(&old, &res, &free, sp.df_hz);
+                match crate::output_error::refine(
+                    &res.model,
+                    &free,
+                    records,
+                    oe_options(&old, &bounds, &num_rel),
+                ) {
                     Ok(oe) => {
-                        report.output_error = Some(oe.summary());
-                        oe.model
+                        let edge: Vec<usize> = free
+                            .iter()
+                            .zip(&bounds)
+                            .filter(|(&k, b)| {
+                                let m = oe.model.modes[k];
+                                let z = m.zeta.max(1e-6).ln();
+                                b.wn_at_bound(m.wn.ln())
+                                    || z <= b.ln_zeta.0 + 1e-6
+                                    || z >= b.ln_zeta.1 - 1e-6
+                            })
+                            .map(|(&k, _)| k)
+                            .collect();
+                        if edge.is_empty() {
+                            report.output_error = Some(oe.summary());
+                        }
+                        if let Some(h) = report.held_out.as_mut() {
+                            h.note += &if edge.is_empty() {
+                                "; refined by output error within its trust region".to_string()
+                            } else {
+                                format!(
+                                    "; the output-error refinement ends on its trust region's \
+                                     edge for modes {edge:?} (the records ask for more than a \
+                                     refinement): not used, the modal update stands"
+                                )
+                            };
+                        }
+                        if edge.is_empty() {
+                            oe.model
+                        } else {
+                            res.model
+                        }
                     }
                     Err(_) => res.model,
                 }
@@ -681,24 +1145,130 @@ pub fn refit(
         .collect();
     report.updated = true;
     report.fit_after_pct = time_fit(&out, records)?;
+    if std::env::var_os("MTWIN_DEBUG_REFIT").is_some() {
+        if let Some(h) = &report.held_out {
+            eprintln!("refit held-out: {}", h.note);
+        }
+    }
+    push_history(&mut out, twin, records, &report, opts, pose);
+    Ok((out, report))
+}
+
+/// Appends the refit's history entry (data files, figures, the complete previous poses)
+/// to `out`.
+fn push_history(
+    out: &mut Twin,
+    twin: &Twin,
+    records: &[TimeSeries],
+    report: &RefitReport,
+    opts: &RefitOptions,
+    pose: [f64; 3],
+) {
     let mut figures = serde_json::Map::new();
-    if let Ok(serde_json::Value::Object(m)) = serde_json::to_value(&report) {
+    if let Ok(serde_json::Value::Object(m)) = serde_json::to_value(report) {
         figures = m;
     }
-    out.history.push(HistoryEntry {
-        unix_time: now_unix(),
-        kind: "refit".into(),
-        files: records.iter().map(|r| r.source.clone()).collect(),
-        summary: format!(
+    let summary = if report.updated {
+        format!(
             "{:?} refit at pose {:?}: simulated-response fit {:.2} % -> {:.2} %, {} modes changed",
             opts.method,
             pose,
             report.drift_fit_pct,
             report.fit_after_pct,
             report.modes.len()
-        ),
+        )
+    } else {
+        format!(
+            "{:?} refit at pose {:?}: drift (simulated-response fit {:.2} %) but no validated \
+             update; modes kept",
+            opts.method, pose, report.drift_fit_pct
+        )
+    };
+    out.history.push(HistoryEntry {
+        unix_time: now_unix(),
+        kind: "refit".into(),
+        files: records.iter().map(|r| r.source.clone()).collect(),
+        summary,
         figures,
         previous_poses: twin.poses.clone(),
     });
-    Ok((out, report))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::{ChannelModel, Mode, ModeNum};
+
+    fn three_modes() -> ModalModel {
+        let modes = vec![
+            Mode::from_hz(100.0, 0.02),
+            Mode::from_hz(130.0, 0.02),
+            Mode::from_hz(400.0, 0.01),
+        ];
+        let num = modes.iter().map(|_| ModeNum { b0: 1.0, b1: 0.0 }).collect();
+        ModalModel {
+            modes,
+            channels: vec![ChannelModel {
+                channel: Channel::new(Axis::X, Axis::X),
+                num,
+                d: 0.0,
+            }],
+        }
+    }
+
+    /// The output-error stage's region lies inside the identity bounds, holds the modal
+    /// update, and is at least the Welch resolution wide (a line in frequency).
+    #[test]
+    fn refinement_bounds_are_a_trust_region_inside_the_identity_bounds() {
+        let old = three_modes();
+        let mut upd = old.clone();
+        upd.modes[1].wn *= 0.97;
+        let res = UpdateResult {
+            model: upd.clone(),
+            chi_before: 2.0,
+            chi_after: 1.0,
+            iterations: 3,
+            at_bound: vec![],
+            posterior_sd: vec![[1e-5, 1e-3]],
+        };
+        let df = 0.5;
+        let b = refinement_bounds(&old, &res, &[1], df);
+        let id = ModeBounds::identity(&old, 1, &Prior::default());
+        let (lw, lz) = (upd.modes[1].wn.ln(), upd.modes[1].zeta.ln());
+        assert!(b[0].ln_wn.0 >= id.ln_wn.0 && b[0].ln_wn.1 <= id.ln_wn.1);
+        assert!(b[0].ln_wn.0 < lw && lw < b[0].ln_wn.1);
+        assert!(b[0].ln_zeta.0 < lz && lz < b[0].ln_zeta.1);
+        let f = upd.modes[1].freq_hz();
+        let half_width = 0.5 * (b[0].ln_wn.1 - b[0].ln_wn.0);
+        assert!(
+            (half_width - (1.0 + df / f).ln()).abs() < 1e-12,
+            "{half_width}"
+        );
+        // a wide posterior is cut by the identity bounds (the neighbour at 100 Hz)
+        let loose = UpdateResult {
+            posterior_sd: vec![[1.0, 1.0]],
+            ..res
+        };
+        let b = refinement_bounds(&old, &loose, &[1], df);
+        assert_eq!(b[0].ln_wn, id.ln_wn);
+    }
+
+    /// The numerators' prior widths: the channel's discrepancy, at least the floor, the
+    /// default where the data have no points.
+    #[test]
+    fn numerator_widths_follow_the_discrepancy() {
+        let mut m = three_modes();
+        m.channels.push(ChannelModel {
+            channel: Channel::new(Axis::Y, Axis::Y),
+            ..m.channels[0].clone()
+        });
+        let pts = vec![Points {
+            channel: Channel::new(Axis::X, Axis::X),
+            freqs_hz: vec![],
+            h: vec![],
+            sigma: vec![],
+        }];
+        assert_eq!(numerator_widths(&m, &pts, &[0.05]), vec![0.05, 0.5]);
+        assert_eq!(numerator_widths(&m, &pts, &[0.0]), vec![REL_FLOOR, 0.5]);
+    }
 }

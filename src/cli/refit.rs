@@ -79,7 +79,13 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
         rep.pose,
         rep.drift_fit_pct,
         rep.drift_chi,
-        if rep.updated { "updated" } else { "no change needed" }
+        if rep.updated {
+            "updated"
+        } else if rep.held_out.is_some() {
+            "drift, but no validated update: modes kept"
+        } else {
+            "no change needed"
+        }
     ));
     for m in &rep.modes {
         out.say(format!(
@@ -90,6 +96,9 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
             100.0 * m.zeta_before,
             100.0 * m.zeta_after
         ));
+    }
+    if let Some(h) = &rep.held_out {
+        out.say(format!("  held-out check: {}", h.note));
     }
     if rep.updated {
         out.say(format!(

@@ -37,9 +37,15 @@ pub fn refit_report(old: &Twin, new: &Twin, rep: &RefitReport, series: &[TimeSer
          <tr><td>{:.2} %</td><td>{:.1} σ</td><td class=\"{}\">{}</td><td>{}</td><td>{}</td></tr></table>",
         rep.drift_fit_pct,
         rep.drift_chi,
-        if rep.updated { "bad" } else { "ok" },
+        if rep.updated || rep.held_out.is_some() {
+            "bad"
+        } else {
+            "ok"
+        },
         if rep.updated {
             "drift: twin updated"
+        } else if rep.held_out.is_some() {
+            "drift, but no validated update: modes kept"
         } else {
             "within tolerance: no change"
         },
@@ -50,6 +56,25 @@ pub fn refit_report(old: &Twin, new: &Twin, rep: &RefitReport, series: &[TimeSer
         },
         rep.lines_hz.len()
     );
+    if let Some(h) = &rep.held_out {
+        let disc = h
+            .discrepancy
+            .iter()
+            .map(|(c, e)| format!("{c} {:.2} %", 100.0 * e))
+            .collect::<Vec<_>>()
+            .join(", ");
+        let _ = writeln!(
+            b,
+            "<h2>Held-out check</h2><p>{}. Split: {}. Modes the data excite: {:?}; refused at an \
+             identity bound: {:?}. Twin's relative discrepancy per channel (added to the \
+             standard errors): {}.</p>",
+            esc(&h.note),
+            esc(&h.split),
+            h.candidates,
+            h.refused_at_bound,
+            esc(&disc)
+        );
+    }
     if let Some(oe) = &rep.output_error {
         let _ = writeln!(
             b,
