@@ -15,7 +15,7 @@ use identify::interpolate::TwinEvaluator;
 use identify::model::ModalModel;
 use identify::read::read_frf_csv;
 use identify::twin::Twin;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 fn tryout() -> PathBuf {
     let t = shared_data().join("tryout_gantry");
@@ -25,23 +25,6 @@ fn tryout() -> PathBuf {
         t.display()
     );
     t
-}
-
-/// The pose in the FRF file's comment line (`# ... pose=x,y,z`).
-fn pose_of(path: &Path) -> [f64; 3] {
-    let text = std::fs::read_to_string(path).unwrap();
-    let first = text.lines().next().unwrap();
-    let p: Vec<f64> = first
-        .split("pose=")
-        .nth(1)
-        .expect("pose in the comment line")
-        .split_whitespace()
-        .next()
-        .unwrap()
-        .split(',')
-        .map(|v| v.parse().unwrap())
-        .collect();
-    [p[0], p[1], p[2]]
 }
 
 /// Fit [%] of the model's channel `ch` to the truth over `band`.

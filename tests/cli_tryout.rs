@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::{mtwin, s, shared_data, stderr, tmp};
+use common::{mtwin, pose_of, s, shared_data, stderr, tmp};
 use identify::axis::{Axis, Channel};
 use identify::frf::{fit_percent, Frf};
 use identify::interpolate::TwinEvaluator;
@@ -16,23 +16,6 @@ use std::path::{Path, PathBuf};
 
 fn tryout(rel: &str) -> PathBuf {
     shared_data().join("tryout_gantry").join(rel)
-}
-
-/// The pose in a truth file's first comment line (`... pose=X,Y,Z`).
-fn pose_of(path: &Path) -> [f64; 3] {
-    let text = std::fs::read_to_string(path).expect("truth file");
-    let first = text.lines().next().unwrap_or_default();
-    let p: Vec<f64> = first
-        .split("pose=")
-        .nth(1)
-        .expect("pose in the comment line")
-        .split_whitespace()
-        .next()
-        .unwrap_or_default()
-        .split(',')
-        .map(|v| v.parse().expect("pose number"))
-        .collect();
-    [p[0], p[1], p[2]]
 }
 
 fn channel(frf: &Frf, ch: Channel) -> &[Complex64] {

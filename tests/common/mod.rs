@@ -38,3 +38,20 @@ pub fn tmp() -> tempfile::TempDir {
 pub fn s(p: &Path) -> &str {
     p.to_str().expect("utf-8 path")
 }
+
+/// The pose in a truth file's first comment line (`... pose=X,Y,Z`).
+pub fn pose_of(path: &Path) -> [f64; 3] {
+    let text = std::fs::read_to_string(path).expect("truth file");
+    let first = text.lines().next().unwrap_or_default();
+    let p: Vec<f64> = first
+        .split("pose=")
+        .nth(1)
+        .expect("pose in the comment line")
+        .split_whitespace()
+        .next()
+        .unwrap_or_default()
+        .split(',')
+        .map(|v| v.parse().expect("pose number"))
+        .collect();
+    [p[0], p[1], p[2]]
+}
