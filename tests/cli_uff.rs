@@ -174,3 +174,32 @@ fn frf_csv_inputs_carry_their_pose_in_a_comment() {
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("give each pose once"), "{}", stderr(&o));
 }
+
+/// Defaults only (`--uff-ref` is the one choice the file leaves open): each of the three
+/// measured accelerances of the free-free beam is fitted at ≥ 97 % as measured
+/// (accelerance), over the whole file band, and the twin says which quantity it judged.
+#[test]
+fn real_uff_defaults_fit_each_measured_accelerance() {
+    let uff = shared_data().join("pyuff_measured_frf/meas_points_frf_uff58.uff");
+    let d = tmp();
+    for r in ["1", "2", "3"] {
+        let twin = d.path().join(format!("twin{r}.json"));
+        let v = json(&mtwin(&[
+            "identify",
+            s(&uff),
+            "--uff-ref",
+            r,
+            "--out",
+            s(&twin),
+            "--json",
+        ]));
+        let pose = &v["poses"][0];
+        assert_eq!(pose["plan"]["measured_as"], "accelerance", "{pose}");
+        let fit = pose["fit"][0]["fit_pct"].as_f64().unwrap();
+        eprintln!("--uff-ref {r}: {fit:.2} % (accelerance)");
+        assert!(
+            fit >= 97.0,
+            "--uff-ref {r}: fit {fit:.2} % vs the measured accelerance"
+        );
+    }
+}

@@ -67,6 +67,42 @@ pub struct PosePlan {
     /// Warnings about the model's quality at this pose (empty when it fits its data).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub quality_warnings: Vec<String>,
+    /// The quantity the sensor measured, when known: the pose's `fit` is computed on that
+    /// FRF (accelerance for an accelerometer), the one the user's own estimate shows.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub measured_as: Option<MeasuredAs>,
+}
+
+/// What the response sensor measured: the FRF the data gives directly.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum MeasuredAs {
+    /// Displacement: receptance (m/N).
+    Receptance,
+    /// Velocity: mobility ((m/s)/N).
+    Mobility,
+    /// Acceleration: accelerance ((m/s²)/N).
+    Accelerance,
+}
+
+impl MeasuredAs {
+    /// The power of `jω` that turns a receptance into this FRF.
+    pub fn power(self) -> i32 {
+        match self {
+            MeasuredAs::Receptance => 0,
+            MeasuredAs::Mobility => 1,
+            MeasuredAs::Accelerance => 2,
+        }
+    }
+
+    /// Its name (`receptance`, `mobility`, `accelerance`).
+    pub fn name(self) -> &'static str {
+        match self {
+            MeasuredAs::Receptance => "receptance",
+            MeasuredAs::Mobility => "mobility",
+            MeasuredAs::Accelerance => "accelerance",
+        }
+    }
 }
 
 impl PosePlan {
@@ -89,6 +125,8 @@ pub struct EstimateFacts {
     pub averages: Option<usize>,
     /// Description of the estimator.
     pub method: String,
+    /// What the response sensor measured, when known.
+    pub measured_as: Option<MeasuredAs>,
 }
 
 /// Mean of `v` over the lines within ±`octaves` of each line (two pointers over the
@@ -137,6 +175,7 @@ pub fn plan_pose(
     let mut plan = PosePlan {
         excitation: facts.method.clone(),
         averages: facts.averages,
+        measured_as: facts.measured_as,
         ..Default::default()
     };
     let (mut lo, mut hi) = (

@@ -85,6 +85,13 @@ pub enum Weighting {
     /// (receptance of an accelerometer test spans decades): a relative, near-logarithmic
     /// error, with resonances still above their neighbourhood.
     Balanced,
+    /// The coherence weighting of the *mobility* (receptance × jω): `W` of
+    /// [`Weighting::Coherence`] times the line's frequency. Between the receptance, whose
+    /// low end dominates (mass lines of a free or softly held structure, or of an
+    /// accelerometer test, span decades there), and the accelerance, whose sharp
+    /// high-frequency peaks dominate: mass and stiffness lines both slope by one decade
+    /// per decade, so resonances at both ends of a wide band count.
+    Mobility,
     /// Amplitude weight W per channel per line of the input FRF (≥ 0).
     Custom(Vec<Vec<f64>>),
 }
@@ -342,6 +349,65 @@ fn noise_floor(prep: &Prepared) -> Option<f64> {
     any.then_some(acc)
 }
 
+/// Weighted noise energy per line implied by the coherence (summed over channels), as in
+/// [`noise_floor`]; `None` without coherence.
+fn noise_per_line(prep: &Prepared) -> Option<Vec<f64>> {
+    let mut acc = vec![0.0; prep.n_lines()];
+    let mut any = false;
+    for (ci, ch) in prep.band.channels.iter().enumerate() {
+        let Some(g) = &ch.coherence else { continue };
+        any = true;
+        for (k, &g) in g.iter().enumerate() {
+            let w = prep.w[ci][k];
+            if w > 0.0 {
+                let g = g.clamp(1e-6, 1.0);
+                acc[k] += w * w * prep.h[ci][k].norm_sqr() * (1.0 - g) / g;
+            }
+        }
+    }
+    any.then_some(acc)
+}
+
+/// Lines on each side of the windows in which [`local_excess`] compares the residual
+/// with the noise.
+const LOCAL_HALF_WIDTH: usize = 3;
+
+/// The largest ratio, over windows of `2·LOCAL_HALF_WIDTH + 1` neighbouring lines, of the
+/// weighted residual energy to the noise energy the coherence implies there. A global
+/// residual at the noise floor can hide a sharp resonance the model misses: its few lines
+/// weigh nothing against thousands of noisy ones, yet there the residual is many times the
+/// (tiny) noise of a coherent peak.
+fn local_excess(prep: &Prepared, sol: &Solved, noise: &[f64]) -> f64 {
+    let res = varpro::residual_per_line(prep, sol);
+    let n = res.len();
+    let (mut worst, mut r_sum, mut n_sum) = (0.0f64, 0.0, 0.0);
+    // running sums over the window [k - h, k + h]
+    let h = LOCAL_HALF_WIDTH;
+    for k in 0..n.min(h) {
+        r_sum += res[k];
+        n_sum += noise[k];
+    }
+    for k in 0..n {
+        if k + h < n {
+            r_sum += res[k + h];
+            n_sum += noise[k + h];
+        }
+        if k > h {
+            r_sum -= res[k - h - 1];
+            n_sum -= noise[k - h - 1];
+        }
+        if n_sum > 0.0 {
+            worst = worst.max(r_sum / n_sum);
+        }
+    }
+    worst
+}
+
+/// A window whose residual exceeds this multiple of its noise ([`local_excess`]) means a
+/// mode is still missing there, however small the global residual (with 5 averages a
+/// 7-line window's noise energy has about 70 degrees of freedom: 4× is far beyond chance).
+const LOCAL_EXCESS_LIMIT: f64 = 4.0;
+
 /// The automatic order rule of the module docs.
 fn auto_order(
     prep: &Prepared,
@@ -351,6 +417,12 @@ fn auto_order(
 ) -> Result<Solved> {
     let energy = prep.energy();
     let noise = noise_floor(prep);
+    let noise_lines = noise_per_line(prep);
+    let local_ok = |s: &Solved| {
+        noise_lines
+            .as_ref()
+            .is_none_or(|nl| local_excess(prep, s, nl) <= LOCAL_EXCESS_LIMIT)
+    };
     let max_modes = opts.max_modes.max(1);
     let n0 = physical.len().clamp(1, max_modes);
     let rel = |s: &Solved| (s.cost / energy).sqrt();
@@ -362,7 +434,8 @@ fn auto_order(
             && noise.is_none_or(|nf| s.cost <= 2.0 * nf)
     };
     let done = |s: &Solved| {
-        rel(s) <= opts.target_residual || noise.is_some_and(|nf| s.cost <= nf) || white(s)
+        rel(s) <= opts.target_residual
+            || ((noise.is_some_and(|nf| s.cost <= nf) || white(s)) && local_ok(s))
     };
     let mut best = fit_order(prep, start_poles(prep, physical, n0), opts, report)?;
     // Prune diagram modes that only fit noise: drop the weakest while the residual
@@ -388,7 +461,13 @@ fn auto_order(
     while !done(&best) && current.modes.len() < max_modes {
         let next = add_pair(prep, &current, opts, report)?;
         let gain = 1.0 - rel(&next) / rel(&best);
-        if gain >= opts.min_improvement {
+        // a missing sharp resonance (local_ok false) pays off locally, not globally
+        let required = if local_ok(&best) {
+            opts.min_improvement
+        } else {
+            0.2 * opts.min_improvement
+        };
+        if gain >= required {
             best = next.clone();
             current = next;
             continue;
@@ -399,7 +478,7 @@ fn auto_order(
         }
         let next2 = add_pair(prep, &next, opts, report)?;
         let gain2 = 1.0 - rel(&next2) / rel(&best);
-        if gain2 >= 2.0 * opts.min_improvement {
+        if gain2 >= 2.0 * required {
             best = next2.clone();
             current = next2;
         } else {
@@ -420,7 +499,10 @@ fn auto_order(
     Ok(best)
 }
 
-/// The fit with one more pole pair, placed at the line of largest weighted residual.
+/// The fit with one more pole pair, placed at the line of largest weighted residual:
+/// vector fitting relocates all poles from there; when that ends worse than keeping the
+/// current modes and adding the new pair alone (lightly damped, at a few damping ratios,
+/// numerators re-solved), the latter is taken, so an added pair never raises the error.
 fn add_pair(
     prep: &Prepared,
     current: &Solved,
@@ -440,7 +522,26 @@ fn add_pair(
     let w = prep.s[k].im.max(1e-3);
     let mut poles = vf::modes_to_poles(&current.modes);
     poles.push(Complex64::new(-0.01 * w, w));
-    fit_order(prep, poles, opts, report)
+    let relocated = fit_order(prep, poles, opts, report)?;
+    let mut best = relocated;
+    for zeta in [1e-2, 1e-3, 1e-4] {
+        let mut modes = current.modes.clone();
+        modes.push(Mode { wn: w, zeta });
+        if let Some(sol) = varpro::solve_linear(prep, &modes) {
+            if sol.cost < best.cost {
+                best = sol;
+            }
+        }
+    }
+    if best.modes.len() == current.modes.len() + 1 && best.cost < current.cost {
+        let _ = writeln!(
+            report,
+            "order {} pairs: best of relocation and the added pair alone, relative weighted error {:.3e}",
+            best.modes.len(),
+            (best.cost / prep.energy()).sqrt()
+        );
+    }
+    Ok(best)
 }
 
 /// Converts to original units, checks finiteness and stability.

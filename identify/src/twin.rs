@@ -51,6 +51,12 @@ pub struct ChannelFit {
     /// `-inf` is written as `null` and `null` reads back as `-inf`.
     #[serde(deserialize_with = "fit_or_null")]
     pub fit_pct: f64,
+    /// The fit the noise of the measured FRF allows (from its coherence and number of
+    /// averages): what the noise-free truth itself would score against this data. A model
+    /// near it fits as well as the data can tell, however low both are (a cross channel
+    /// that carries mostly noise).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub noise_limit_pct: Option<f64>,
 }
 
 /// A fit percentage, `null` (how serde_json writes a non-finite number) read as `-inf`.

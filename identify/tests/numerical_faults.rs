@@ -538,6 +538,7 @@ fn twin_with_undefined_fit_saves_and_loads() {
     twin.poses[0].fit = vec![identify::twin::ChannelFit {
         channel: XX,
         fit_pct: identify::frf::fit_percent(&h, &h),
+        noise_limit_pct: None,
     }];
     let d = tempfile::tempdir().unwrap();
     let p = d.path().join("t.json");

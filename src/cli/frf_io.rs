@@ -89,8 +89,30 @@ fn pose_comment(text: &str, path: &Path) -> Result<Option<[f64; 3]>> {
 
 /// Reads one measured FRF file (UFF or FRF CSV) as one pose.
 pub fn read_measured(path: &Path, a: &FrfInputArgs) -> Result<MeasuredFrf> {
+    let mut measured_as = None;
     let (frf, pose) = if is_uff(path) {
         let funcs = uff::read_uff(path)?;
+        // the quantity the file's FRFs measured (all alike), or the one the user assumed
+        let kinds: Vec<i32> = funcs
+            .iter()
+            .map(|f| match f.ordinate_axis.data_type {
+                t @ (uff::DATA_DISPLACEMENT | uff::DATA_VELOCITY | uff::DATA_ACCELERATION) => t,
+                _ => match a.uff_ordinate.as_deref() {
+                    Some("accel") => uff::DATA_ACCELERATION,
+                    Some("vel") => uff::DATA_VELOCITY,
+                    Some(_) => uff::DATA_DISPLACEMENT,
+                    None => 0,
+                },
+            })
+            .collect();
+        if kinds.windows(2).all(|w| w[0] == w[1]) {
+            measured_as = match kinds.first() {
+                Some(&uff::DATA_ACCELERATION) => Some(identify::plan::MeasuredAs::Accelerance),
+                Some(&uff::DATA_VELOCITY) => Some(identify::plan::MeasuredAs::Mobility),
+                Some(&uff::DATA_DISPLACEMENT) => Some(identify::plan::MeasuredAs::Receptance),
+                _ => None,
+            };
+        }
         let sel = UffSelect {
             response_node: a.uff_resp,
             reference_node: a.uff_ref,
@@ -115,7 +137,10 @@ pub fn read_measured(path: &Path, a: &FrfInputArgs) -> Result<MeasuredFrf> {
         (frf, pose_comment(&text, path)?.or(a.pose))
     };
     Ok(MeasuredFrf {
-        facts: Default::default(),
+        facts: identify::plan::EstimateFacts {
+            measured_as,
+            ..Default::default()
+        },
         pose: pose.unwrap_or([0.0; 3]),
         frf,
         exp_window_sigma: None,

@@ -37,11 +37,12 @@ pub struct Args {
     /// Records within this distance \[m\] share a pose.
     #[arg(long, default_value_t = 1e-3)]
     pub pose_tol: f64,
-    /// Line weighting of the fit: auto (coherence weighting; where a channel fits its
-    /// measured FRF worse than 97 %, also the inverse-variance and balanced weightings and
-    /// a deeper stabilization diagram, the best kept), coherence, ml (inverse variance) or
-    /// balanced (relative error: every part of the band counts alike).
-    #[arg(long, default_value = "auto", value_parser = ["auto", "coherence", "ml", "balanced"])]
+    /// Line weighting of the fit: auto (coherence weighting, then the inverse-variance,
+    /// balanced and mobility weightings and, for a poor fit, a deeper stabilization
+    /// diagram; the one with the smallest octave-averaged error kept), coherence, ml
+    /// (inverse variance), balanced (relative error: every part of the band counts alike)
+    /// or mobility (the coherence weighting of receptance × frequency).
+    #[arg(long, default_value = "auto", value_parser = ["auto", "coherence", "ml", "balanced", "mobility"])]
     pub weighting: String,
     /// Also write an HTML report (FRFs, coherence, stabilization diagram, modes across
     /// the workspace) here.
@@ -81,6 +82,7 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
             weighting: match a.weighting.as_str() {
                 "ml" => identify::rational_fit::Weighting::InverseVariance,
                 "balanced" => identify::rational_fit::Weighting::Balanced,
+                "mobility" => identify::rational_fit::Weighting::Mobility,
                 _ => identify::rational_fit::Weighting::Coherence,
             },
             ..FitOptions::default()
@@ -142,10 +144,24 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
         let fits: Vec<String> = p
             .fit
             .iter()
-            .map(|f| format!("{} {:.2} %", f.channel, f.fit_pct))
+            .map(|f| match f.noise_limit_pct {
+                // a channel the noise keeps well below 100 %: say what the data allow
+                Some(l) if l < 97.0 => {
+                    format!(
+                        "{} {:.2} % (its noise allows {:.1} %)",
+                        f.channel, f.fit_pct, l
+                    )
+                }
+                _ => format!("{} {:.2} %", f.channel, f.fit_pct),
+            })
             .collect();
+        let of = p
+            .plan
+            .as_ref()
+            .and_then(|pl| pl.measured_as)
+            .map_or(String::new(), |m| format!(" ({} as measured)", m.name()));
         out.say(format!(
-            "  pose ({:.3}, {:.3}, {:.3}) m: {} modes ({}), band {:.0}-{:.0} Hz, fit {}",
+            "  pose ({:.3}, {:.3}, {:.3}) m: {} modes ({}), band {:.0}-{:.0} Hz, fit {}{of}",
             p.pose[0],
             p.pose[1],
             p.pose[2],

@@ -296,7 +296,7 @@ pub(crate) fn full_weights(
                     })
                     .collect()
             }
-            (None, Weighting::Coherence | Weighting::Balanced, Some(g)) => g
+            (None, Weighting::Coherence | Weighting::Balanced | Weighting::Mobility, Some(g)) => g
                 .iter()
                 .map(|&g| {
                     let g = g.clamp(0.0, COH_CLIP);
@@ -310,6 +310,15 @@ pub(crate) fn full_weights(
             let top = level.iter().cloned().fold(0.0, f64::max);
             for (w, l) in w.iter_mut().zip(&level) {
                 *w = if *l > 1e-12 * top { *w / l } else { 0.0 };
+            }
+        }
+        if custom.is_none() && opts.weighting == Weighting::Mobility {
+            // W·|H| ∝ |jω H|: the mobility's own scale (the absolute factor cancels)
+            let top = frf.freqs_hz.iter().fold(0.0f64, |m, f| m.max(f.abs()));
+            if top > 0.0 {
+                for (w, f) in w.iter_mut().zip(&frf.freqs_hz) {
+                    *w *= f.abs() / top;
+                }
             }
         }
         if let Some(g) = &ch.coherence {
