@@ -137,7 +137,12 @@ fn band_of(frf: &Frf, opts: &FitOptions) -> (f64, f64) {
 /// `100 (1 − ‖H − F‖ / ‖H‖)`, its relative error: unlike the paper's fit against the
 /// octave's mean, a nearly flat octave (a mass or stiffness line) that the model follows
 /// to 1 % scores 99 %, not an arbitrary number set by how flat it is.
-pub fn octave_fits(model: &ModalModel, frf: &Frf, band: (f64, f64)) -> Vec<ChannelFit> {
+pub fn octave_fits(
+    model: &ModalModel,
+    frf: &Frf,
+    band: (f64, f64),
+    averages: Option<usize>,
+) -> Vec<ChannelFit> {
     let lo = band.0.max(
         frf.freqs_hz
             .iter()
@@ -156,7 +161,7 @@ pub fn octave_fits(model: &ModalModel, frf: &Frf, band: (f64, f64)) -> Vec<Chann
     edges.push(band.1);
     let parts: Vec<Vec<ChannelFit>> = edges
         .windows(2)
-        .map(|e| relative_fits(model, frf, (e[0], e[1])))
+        .map(|e| relative_fits(model, frf, (e[0], e[1]), averages))
         .filter(|f| !f.is_empty())
         .collect();
     let Some(first) = parts.first() else {
@@ -184,22 +189,77 @@ pub fn octave_fits(model: &ModalModel, frf: &Frf, band: (f64, f64)) -> Vec<Chann
         .collect()
 }
 
-/// Per-channel `100 (1 − ‖H − F‖ / ‖H‖)` of `model` against `frf` within `band`.
-fn relative_fits(model: &ModalModel, frf: &Frf, band: (f64, f64)) -> Vec<ChannelFit> {
+/// Variance of an H1 line `h` of coherence estimate `g` from `n` averages:
+/// `|H|² (1−γ²)/(n γ²)` (real and imaginary parts together), with the estimate's upward
+/// bias removed, `γ² ≈ (n γ̂² − 1)/(n − 1)`, and `|Ĥ|² ≈ |H|² (1 + r)` for
+/// `r = (1−γ²)/(n γ²)`, so a line of pure noise has the variance of its own value.
+fn h1_variance(h: Complex64, g: f64, n: usize) -> f64 {
+    let nf = n as f64;
+    let g = ((nf * g - 1.0) / (nf - 1.0)).clamp(0.0, 1.0);
+    let r = (1.0 - g) / (g * nf).max(1e-300);
+    h.norm_sqr() * r / (1.0 + r)
+}
+
+/// Per-channel `100 − mean_k |H − F|² / σ_k²` over the lines of `band`, with `σ_k²` the
+/// H1 variance of each line ([`h1_variance`]): the likelihood of `model` given the
+/// estimate, as a score (a model within the noise scores about 99).
+fn noise_scores(model: &ModalModel, frf: &Frf, band: (f64, f64), n: usize) -> Vec<ChannelFit> {
     let b = frf.band(band.0, band.1);
     b.channels
         .iter()
         .filter_map(|c| {
             let ci = model.channel_index(c.channel)?;
-            let (mut err, mut norm) = (0.0, 0.0);
+            let g = c.coherence.as_ref()?;
+            let peak = c.h.iter().map(|h| h.norm_sqr()).fold(0.0, f64::max);
+            let (mut chi2, mut lines) = (0.0, 0usize);
+            for (k, &f) in b.freqs_hz.iter().enumerate() {
+                let var = h1_variance(c.h[k], g[k], n).max(1e-12 * peak);
+                if var > 0.0 {
+                    chi2 += (c.h[k] - model.eval_hz(ci, f)).norm_sqr() / var;
+                    lines += 1;
+                }
+            }
+            Some(ChannelFit {
+                channel: c.channel,
+                fit_pct: if lines > 0 {
+                    100.0 - chi2 / lines as f64
+                } else {
+                    f64::NAN
+                },
+                noise_limit_pct: None,
+            })
+        })
+        .collect()
+}
+
+/// Per-channel `100 (1 − √(‖H − F‖² − E‖noise‖²) / ‖H‖)` of `model` against `frf` within
+/// `band`: the relative error, less what the estimate's noise accounts for (from its
+/// coherence and `averages`, when both are known) — a model is not scored on the noise.
+fn relative_fits(
+    model: &ModalModel,
+    frf: &Frf,
+    band: (f64, f64),
+    averages: Option<usize>,
+) -> Vec<ChannelFit> {
+    let b = frf.band(band.0, band.1);
+    b.channels
+        .iter()
+        .filter_map(|c| {
+            let ci = model.channel_index(c.channel)?;
+            let (mut err, mut norm, mut noise) = (0.0, 0.0, 0.0);
             for (k, &f) in b.freqs_hz.iter().enumerate() {
                 err += (c.h[k] - model.eval_hz(ci, f)).norm_sqr();
                 norm += c.h[k].norm_sqr();
+                if let (Some(g), Some(n)) = (&c.coherence, averages) {
+                    if n > 1 {
+                        noise += h1_variance(c.h[k], g[k], n);
+                    }
+                }
             }
             Some(ChannelFit {
                 channel: c.channel,
                 fit_pct: if norm > 0.0 {
-                    100.0 * (1.0 - (err / norm).sqrt())
+                    100.0 * (1.0 - ((err - noise).max(0.0) / norm).sqrt())
                 } else {
                     f64::NAN
                 },
@@ -235,22 +295,9 @@ pub fn channel_fits_as(
                 .zip(&jw)
                 .map(|(&f, j)| model.eval_hz(ci, f) * j)
                 .collect();
-            // an H1 line's variance |H|² (1−γ²)/(n γ²) (real and imaginary parts together),
-            // with the coherence estimate's upward bias removed: γ² ≈ (n γ̂² − 1)/(n − 1)
             let noise_limit_pct = match (&c.coherence, averages) {
                 (Some(g), Some(n)) if n > 1 => {
-                    let nf = n as f64;
-                    let var: f64 = h
-                        .iter()
-                        .zip(g)
-                        .map(|(h, &g)| {
-                            // r = var/|H|²; the measured |Ĥ|² ≈ |H|² (1 + r), so a line
-                            // of pure noise (γ² → 0) has the variance of its own value
-                            let g = ((nf * g - 1.0) / (nf - 1.0)).clamp(0.0, 1.0);
-                            let r = (1.0 - g) / (g * nf).max(1e-300);
-                            h.norm_sqr() * r / (1.0 + r)
-                        })
-                        .sum();
+                    let var: f64 = h.iter().zip(g).map(|(h, &g)| h1_variance(*h, g, n)).sum();
                     let mean = h.iter().sum::<Complex64>() / h.len().max(1) as f64;
                     let spread: f64 = h.iter().map(|v| (v - mean).norm_sqr()).sum();
                     (spread > 0.0).then(|| 100.0 * (1.0 - (var / spread).sqrt()))
@@ -440,6 +487,8 @@ pub fn identify_frfs(
             let fitted = select_channels(&m.frf, &plan.used_channels());
             let options = FitOptions {
                 band_hz: Some((plan.band_hz[0], plan.band_hz[1])),
+                // a windowed Welch estimate biases sharp peaks: no local order check there
+                sharp_peaks: opts.fit.sharp_peaks && !m.facts.method.contains("Welch"),
                 ..opts.fit.clone()
             };
             let (res, plan) = fit_pose(&fitted, &options, plan, opts, m.pose)?;
@@ -731,8 +780,25 @@ fn fit_pose(
         )
     };
     let band = band_of(frf, options);
+    let plan_averages = plan.averages;
+    // A windowed (Welch) estimate smears sharp peaks: a fit that follows the data there
+    // follows the window's bias, which only the coherence records (it drops where the
+    // window leaks). There the candidates are ranked by their likelihood, the mean
+    // squared error in units of each line's noise; elsewhere by the data they fit.
+    let likelihood = plan.excitation.contains("Welch")
+        && plan_averages.is_some_and(|n| n > 1)
+        && frf.channels.iter().all(|c| c.coherence.is_some());
+    let what = if likelihood {
+        "likelihood score (100 − mean squared error in noise units)"
+    } else {
+        "mean fit"
+    };
     let score = |r: &crate::rational_fit::FitResult| {
-        let f = octave_fits(&r.model, frf, band);
+        let f = if likelihood {
+            noise_scores(&r.model, frf, band, plan_averages.unwrap_or(2))
+        } else {
+            octave_fits(&r.model, frf, band, plan_averages)
+        };
         let worst = f.iter().map(|c| c.fit_pct).fold(f64::INFINITY, f64::min);
         (mean_fit(&f), worst)
     };
@@ -790,9 +856,10 @@ fn fit_pose(
         match fit_frf(frf, cand) {
             Ok(alt) => {
                 let s = score(&alt);
+
                 let better = s.0 > best_score.0 + 0.2;
                 plan.alternatives.push(format!(
-                    "{}: mean fit {:.2} %, worst channel {:.2} %, {} modes{}",
+                    "{}: {what} {:.2} %, worst channel {:.2} %, {} modes{}",
                     name(cand),
                     s.0,
                     s.1,
@@ -815,7 +882,7 @@ fn fit_pose(
         plan.alternatives.insert(
             0,
             format!(
-                "kept: {best_name} (mean fit {:.2} %, worst channel {:.2} %)",
+                "kept: {best_name} ({what} {:.2} %, worst channel {:.2} %)",
                 best_score.0, best_score.1
             ),
         );

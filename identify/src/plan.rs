@@ -391,6 +391,7 @@ mod tests {
             excitation_band_hz: Some((1.0, 900.0)),
             averages: Some(5),
             method: "impact".into(),
+            measured_as: None,
         };
         let p = plan_pose(&frf, &facts, None, &[]);
         assert!(p.channels[0].used && !p.channels[1].used, "{p:?}");
