@@ -116,8 +116,8 @@ fn tryout_campaign_twin_fits_the_truth_better_than_its_own_h1() {
             worst_measured = worst_measured.min(twin_fit);
         }
     }
-    // unmeasured poses: the target is worst measured - 2 points; today's interpolation
-    // reaches about 92 % there (see the README), so this guards against losing ground
+    // unmeasured poses: no worse than the worst measured pose minus 2 points (two modes
+    // cross near (0.6, 0.15, 0.25): their split there comes from the other poses)
     for u in 0..3 {
         let truth_path = tryout(&format!("truth/u{u}.csv"));
         let truth = read_frf_csv(&truth_path).expect("truth");
@@ -125,7 +125,10 @@ fn tryout_campaign_twin_fits_the_truth_better_than_its_own_h1() {
         for ch in [xx, yy] {
             let f = twin_vs_truth(&twin, &truth, pose, ch, band);
             eprintln!("u{u} {ch}: {f:.2} % (worst measured {worst_measured:.2} %)");
-            assert!(f >= 90.0, "unmeasured pose u{u} {ch}: {f:.2} %");
+            assert!(
+                f >= worst_measured - 2.0,
+                "unmeasured pose u{u} {ch}: {f:.2} % < worst measured {worst_measured:.2} % - 2"
+            );
         }
     }
 }

@@ -535,6 +535,7 @@ pub fn identify_frfs(
         .collect();
     if fits.len() > 1 {
         warnings.extend(track_modes(&mut fits)?);
+        warnings.extend(resplit_coincident_modes(&mut fits));
     }
     let diagrams: Vec<StabilizationDiagram> = fits.iter().map(|f| f.diagram.clone()).collect();
     let poses: Vec<PoseModel> = fits
@@ -888,6 +889,147 @@ fn fit_pose(
         );
     }
     Ok((best, plan))
+}
+
+/// Two tracked modes of one pose count as coincident when their natural frequencies
+/// differ by less than this fraction of the smaller half-power half-width `ζω`.
+const COINCIDENT_SEPARATION: f64 = 0.5;
+
+/// Where two tracked modes of a pose coincide (a crossing of their frequencies inside the
+/// workspace), the data fix only the sum of their numerators: any split fits the FRF
+/// alike, and an arbitrary one spoils the interpolation towards every neighbour. The
+/// split is taken from the other poses instead ([`ridge_split`] towards their
+/// interpolation at this pose), kept only when the pose's own fit drops by less than
+/// 0.05 points. One warning per re-split pair.
+fn resplit_coincident_modes(fits: &mut [PoseFit]) -> Vec<String> {
+    let mut notes = Vec::new();
+    if fits.len() < 3 {
+        return notes;
+    }
+    for i in 0..fits.len() {
+        let n = fits[i].model.modes.len();
+        let mut pairs = Vec::new();
+        for a in 0..n {
+            for b in a + 1..n {
+                let (ma, mb) = (fits[i].model.modes[a], fits[i].model.modes[b]);
+                let half = (ma.zeta * ma.wn).min(mb.zeta * mb.wn);
+                if (ma.wn - mb.wn).abs() < COINCIDENT_SEPARATION * half {
+                    pairs.push((a, b));
+                }
+            }
+        }
+        // an exponential window's damping is removed from the model but not from the
+        // FRF: the split is only re-solved on unwindowed estimates
+        if pairs.is_empty() || fits[i].sigma.is_some() {
+            continue;
+        }
+        let others: Vec<([f64; 3], &ModalModel)> = fits
+            .iter()
+            .enumerate()
+            .filter(|(j, _)| *j != i)
+            .map(|(_, f)| (f.pose, &f.model))
+            .collect();
+        let Ok(mut ev) = TwinEvaluator::from_poses(&others) else {
+            continue;
+        };
+        let pred = ev.model_at(fits[i].pose).clone();
+        if pred.modes.len() != n {
+            continue;
+        }
+        let band = band_of(&fits[i].frf, &fits[i].options);
+        let before = mean_fit(&channel_fits(&fits[i].model, &fits[i].frf, band));
+        for (a, b) in pairs {
+            let Some(trial) = ridge_split(&fits[i].model, &pred, &fits[i].frf, band, (a, b)) else {
+                continue;
+            };
+            let after = mean_fit(&channel_fits(&trial, &fits[i].frf, band));
+            if after >= before - 0.05 {
+                notes.push(format!(
+                    "pose {:?}: modes at {:.1} and {:.1} Hz coincide (the data fix only their \
+                     sum); their split taken from the other poses (fit {:.2} -> {:.2} %)",
+                    fits[i].pose,
+                    trial.modes[a].freq_hz(),
+                    trial.modes[b].freq_hz(),
+                    before,
+                    after
+                ));
+                fits[i].model = trial;
+            }
+        }
+    }
+    notes
+}
+
+/// The coincident modes `pair` of `model` with the poles of `pred` (the other poses'
+/// interpolation: fitted together with an arbitrary split, the pair's poles are as
+/// uncertain as the split), then the numerators of every channel re-solved on `frf`
+/// within `band` with the pair's pulled weakly towards `pred`'s: the data decide what
+/// they determine (the sum), the prior the direction they leave open (the split). Least
+/// squares on unit-norm columns, ridge 0.1 on the pair's four numerator coefficients.
+fn ridge_split(
+    model: &ModalModel,
+    pred: &ModalModel,
+    frf: &Frf,
+    band: (f64, f64),
+    pair: (usize, usize),
+) -> Option<ModalModel> {
+    use nalgebra::{DMatrix, DVector};
+    const RIDGE: f64 = 1e-1;
+    let b = frf.band(band.0, band.1);
+    let n = model.modes.len();
+    let cols = 2 * n + 1;
+    let mut out = model.clone();
+    // the pair's poles, fitted together with an arbitrary split, are as uncertain as the
+    // split: both taken from the other poses too
+    out.modes[pair.0] = pred.modes[pair.0];
+    out.modes[pair.1] = pred.modes[pair.1];
+    let model = &out.clone();
+    for (ci, ch) in model.channels.iter().enumerate() {
+        let data = b.channels.iter().find(|c| c.channel == ch.channel)?;
+        let pc = &pred.channels[pred.channel_index(ch.channel)?];
+        let lines = b.freqs_hz.len();
+        let mut a_m = DMatrix::<f64>::zeros(2 * lines + 4, cols);
+        let mut rhs = DVector::<f64>::zeros(2 * lines + 4);
+        for (k, &f) in b.freqs_hz.iter().enumerate() {
+            let s = Complex64::new(0.0, 2.0 * std::f64::consts::PI * f);
+            for (j, m) in model.modes.iter().enumerate() {
+                let inv = 1.0 / m.den(s);
+                let c1 = s * inv;
+                a_m[(2 * k, 2 * j)] = inv.re;
+                a_m[(2 * k + 1, 2 * j)] = inv.im;
+                a_m[(2 * k, 2 * j + 1)] = c1.re;
+                a_m[(2 * k + 1, 2 * j + 1)] = c1.im;
+            }
+            a_m[(2 * k, 2 * n)] = 1.0;
+            rhs[2 * k] = data.h[k].re;
+            rhs[2 * k + 1] = data.h[k].im;
+        }
+        let norms: Vec<f64> = (0..cols)
+            .map(|c| a_m.column(c).norm().max(f64::MIN_POSITIVE))
+            .collect();
+        for (c, nrm) in norms.iter().enumerate() {
+            a_m.column_mut(c).scale_mut(1.0 / nrm);
+        }
+        let ridge = [(pair.0, 0), (pair.0, 1), (pair.1, 0), (pair.1, 1)];
+        for (r, (j, which)) in ridge.into_iter().enumerate() {
+            let c = 2 * j + which;
+            let target = if which == 0 {
+                pc.num[j].b0
+            } else {
+                pc.num[j].b1
+            };
+            a_m[(2 * lines + r, c)] = RIDGE;
+            rhs[2 * lines + r] = RIDGE * target * norms[c];
+        }
+        let x = a_m.svd(true, true).solve(&rhs, 1e-14).ok()?;
+        let oc = &mut out.channels[ci];
+        for j in 0..n {
+            oc.num[j].b0 = x[2 * j] / norms[2 * j];
+            oc.num[j].b1 = x[2 * j + 1] / norms[2 * j + 1];
+        }
+        oc.d = x[2 * n] / norms[2 * n];
+    }
+    out.is_valid().then_some(out)
 }
 
 /// Damping ratio given to a mode whose fitted damping was smaller than what the

@@ -418,13 +418,30 @@ fn local_excess(prep: &Prepared, sol: &Solved, noise: &[f64]) -> f64 {
         // error of a fraction of a percent is no missing mode, however clean the data
         // ... and only at a peak of the data inside the band (a missing resonance shows
         // as one; a band edge or a mode's flank is model form, not a missing mode)
-        let peak = k >= h && k + h < n && (k - h..=k + h).all(|j| sig[j] <= sig[k]);
+        let peak = k >= h && k + h < n && (k - h..=k + h).all(|j| sig[j] <= sig[k]) && {
+            // ... that stands out of its surroundings (a noise bump on a smooth
+            // tail does not)
+            let (a, b) = (
+                k.saturating_sub(PEAK_SURROUNDINGS),
+                (k + PEAK_SURROUNDINGS + 1).min(n),
+            );
+            let mean = sig[a..b].iter().sum::<f64>() / (b - a) as f64;
+            sig[k] >= PEAK_PROMINENCE * mean
+        };
         if peak && n_sum > 0.0 && r_sum > LOCAL_RELATIVE_MIN * LOCAL_RELATIVE_MIN * s_sum {
             worst = worst.max(r_sum / n_sum);
         }
     }
     worst
 }
+
+/// Lines on each side over which [`local_excess`] compares a data peak with its
+/// surroundings.
+const PEAK_SURROUNDINGS: usize = 8 * LOCAL_HALF_WIDTH;
+
+/// A data peak counts for [`local_excess`] when its weighted energy is this many times the
+/// mean over its surroundings.
+const PEAK_PROMINENCE: f64 = 4.0;
 
 /// [`local_excess`] ignores windows whose residual is below this fraction (RMS) of the
 /// data there.
