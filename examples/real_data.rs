@@ -1,21 +1,24 @@
-//! mtwin on REAL measured data (../shared/data): the impact-hammer test and the
-//! pyuff measured accelerances.
+//! mtwin on REAL measured data (../shared/data) with the defaults a user gets from
+//! `mtwin identify FILE --out twin.json` (no band, order or weighting given): the
+//! impact-hammer test and the pyuff measured accelerances.
 //!
 //! Run: `cargo run --release --example real_data` (from the repository root; the data
 //! folder is found at `../shared/data` or `$MTWIN_DATA`).
 //!
-//! 1. Impact hammer, 5 hits (`impact_5hits.csv`): mtwin's FRF estimate (hit detection,
-//!    force/exponential windows, H1, coherence), automatic order, rational fit in
-//!    200–4500 Hz; the model is scored against a *plain per-hit H1 of the raw data*
-//!    (no windows) where its coherence is > 0.95, as receptance.
-//! 2. pyuff's three measured accelerances (roving hammer on a free-free beam): each fitted
-//!    on its own, 20–1000 Hz, automatic order; the fit against the measured receptance.
+//! 1. Impact hammer, 5 hits (`impact_5hits.csv`): the whole automatic path
+//!    (`identify_campaign` with default options: hit detection, windows, H1, the plan's
+//!    band and channels, order, weighting candidates); the model is scored against a
+//!    *plain per-hit H1 of the raw data* (no windows) at 200–4500 Hz where its coherence
+//!    is > 0.95, as accelerance (what was measured) and as receptance.
+//! 2. pyuff's three measured accelerances (roving hammer on a free-free beam), each as its
+//!    own pose through `identify_frfs` with default options, scored against the measured
+//!    accelerance over the whole file (1–1000 Hz) and as receptance at 20–1000 Hz.
 
 use identify::axis::{Axis, Channel};
-use identify::frf::{fit_percent, Frf, FrfChannel};
-use identify::rational_fit::{fit_frf, FitOptions};
+use identify::campaign::{identify_campaign, identify_frfs, CampaignOptions, MeasuredFrf};
+use identify::frf::fit_percent;
+use identify::plan::{EstimateFacts, MeasuredAs};
 use identify::read::{accelerance_to_receptance, read_complex_lines, read_timeseries};
-use identify::spectra::{estimate_frf, FrfOptions};
 use num_complex::Complex64;
 use std::f64::consts::PI;
 use std::path::PathBuf;
@@ -58,29 +61,14 @@ fn impact() -> Result<(), Box<dyn std::error::Error>> {
     let path = data_dir().join("pyfrf_impact_hammer/impact_5hits.csv");
     let ts = read_timeseries(&path)?;
     let t0 = Instant::now();
-    let est = estimate_frf(std::slice::from_ref(&ts), &FrfOptions::default())?;
-    let t_frf = t0.elapsed();
-    let coh = est.frf.channels[0].coherence.clone().unwrap_or_default();
-    let in_band: Vec<f64> = est
-        .frf
-        .freqs_hz
-        .iter()
-        .zip(&coh)
-        .filter(|(f, _)| (200.0..=4500.0).contains(*f))
-        .map(|(_, c)| *c)
-        .collect();
-    let mut sorted = in_band.clone();
-    sorted.sort_by(f64::total_cmp);
-    let t1 = Instant::now();
-    let opts = FitOptions {
-        band_hz: Some((200.0, 4500.0)),
-        ..FitOptions::default()
-    };
-    let mut fit = fit_frf(&est.frf, &opts)?;
-    if let Some(s) = est.exp_window_sigma {
-        fit.model.shift_poles(s);
-    }
-    let t_fit = t1.elapsed();
+    let res = identify_campaign(
+        std::slice::from_ref(&ts),
+        &CampaignOptions::default(),
+        &|_, _| {},
+    )?;
+    let dt = t0.elapsed();
+    let pose = &res.twin.poses[0];
+    let model = &pose.model;
 
     // Score against the plain per-hit H1 of the raw samples.
     let fx = ts.force(Axis::X).ok_or("no fx")?;
@@ -88,95 +76,91 @@ fn impact() -> Result<(), Box<dyn std::error::Error>> {
     let fs = ts.fs();
     let n = fs.round() as usize; // 1 s per hit
     let (freqs, acc, coh_plain) = plain_h1(fx, ax, n, fs);
-    let mut meas = Vec::new();
-    let mut model = Vec::new();
+    let (mut meas_a, mut model_a, mut meas_r, mut model_r) = (vec![], vec![], vec![], vec![]);
     for k in 0..freqs.len() {
         let f = freqs[k];
         if (200.0..=4500.0).contains(&f) && coh_plain[k] > 0.95 {
-            let w = 2.0 * PI * f;
-            meas.push(acc[k] / (-w * w));
-            model.push(fit.model.eval_hz(0, f));
+            let w2 = -(2.0 * PI * f).powi(2);
+            let r = model.eval_hz(0, f);
+            meas_a.push(acc[k]);
+            model_a.push(r * w2);
+            meas_r.push(acc[k] / w2);
+            model_r.push(r);
         }
     }
-    println!("## Real impact-hammer test (pyFRF, 5 hits, 25.6 kHz)");
-    println!(
-        "hits used {} dropped {:?}, exponential window sigma {:?}, FRF estimate {:.1} ms",
-        est.hits_used,
-        est.hits_dropped,
-        est.exp_window_sigma,
-        t_frf.as_secs_f64() * 1e3
-    );
-    println!(
-        "coherence 200-4500 Hz: median {:.4}, 5th percentile {:.4}",
-        sorted[sorted.len() / 2],
-        sorted[sorted.len() / 20]
-    );
-    println!(
-        "order {} modes ({}), fit {:.1} ms",
-        fit.model.modes.len(),
-        if fit.automatic_order {
-            "automatic"
-        } else {
-            "given"
-        },
-        t_fit.as_secs_f64() * 1e3
-    );
-    let f_in: Vec<String> = fit
-        .model
+    println!("## Real impact-hammer test (pyFRF, 5 hits, 25.6 kHz), default options");
+    if let Some(plan) = &pose.plan {
+        println!("excitation: {}", plan.excitation);
+        println!(
+            "band {:.0}-{:.0} Hz; {}",
+            pose.band_hz[0],
+            pose.band_hz[1],
+            plan.alternatives.first().cloned().unwrap_or_default()
+        );
+    }
+    let f_in: Vec<String> = model
         .modes
         .iter()
         .map(|m| m.freq_hz())
         .filter(|f| (200.0..=4500.0).contains(f))
         .map(|f| format!("{f:.0}"))
         .collect();
-    println!("modes in band [Hz]: {}", f_in.join(" "));
     println!(
-        "receptance fit vs plain per-hit H1 (200-4500 Hz, coherence > 0.95, {} lines): {:.2} %  (target >= 97 %)",
-        meas.len(),
-        fit_percent(&meas, &model)
+        "{} modes (automatic), identify {:.2} s; modes in 200-4500 Hz [Hz]: {}",
+        model.modes.len(),
+        dt.as_secs_f64(),
+        f_in.join(" ")
+    );
+    println!(
+        "vs plain per-hit H1 (200-4500 Hz, coherence > 0.95, {} lines): accelerance {:.2} %, receptance {:.2} %  (target >= 97 %)",
+        meas_a.len(),
+        fit_percent(&meas_a, &model_a),
+        fit_percent(&meas_r, &model_r)
     );
     Ok(())
 }
 
 fn pyuff() -> Result<(), Box<dyn std::error::Error>> {
-    println!("\n## pyuff measured accelerances (free-free beam, 0-1000 Hz)");
+    println!("\n## pyuff measured accelerances (free-free beam, 0-1000 Hz), default options");
     for i in 1..=3 {
         let path = data_dir().join(format!("pyuff_measured_frf/meas_point_{i}.txt"));
         let pts = read_complex_lines(&path, 0.0, 1.0)?;
         let frf = accelerance_to_receptance(&pts, Channel::new(Axis::X, Axis::X));
-        let band = Frf {
-            freqs_hz: frf.freqs_hz.clone(),
-            channels: vec![FrfChannel {
-                coherence: None,
-                ..frf.channels[0].clone()
-            }],
-        };
         let t = Instant::now();
-        let res = fit_frf(
-            &band,
-            &FitOptions {
-                band_hz: Some((20.0, 1000.0)),
-                ..FitOptions::default()
-            },
+        let res = identify_frfs(
+            vec![MeasuredFrf {
+                pose: [0.0; 3],
+                frf: frf.clone(),
+                exp_window_sigma: None,
+                sources: vec![path.display().to_string()],
+                warnings: Vec::new(),
+                facts: EstimateFacts {
+                    measured_as: Some(MeasuredAs::Accelerance),
+                    ..Default::default()
+                },
+            }],
+            &CampaignOptions::default(),
+            &|_, _| {},
         )?;
         let dt = t.elapsed();
-        if std::env::var_os("MTWIN_VERBOSE").is_some() {
-            eprintln!("{}", res.report);
-        }
-        let modes: Vec<String> = res
-            .model
-            .modes
-            .iter()
-            .map(|m| m.freq_hz())
-            .filter(|f| (20.0..=1000.0).contains(f))
-            .map(|f| format!("{f:.0}"))
-            .collect();
+        let model = &res.twin.poses[0].model;
+        let score = |lo: f64, power: i32| {
+            let (mut m, mut e) = (vec![], vec![]);
+            for (k, &f) in frf.freqs_hz.iter().enumerate() {
+                if f >= lo {
+                    let jw = Complex64::new(0.0, 2.0 * PI * f).powi(power);
+                    m.push(frf.channels[0].h[k] * jw);
+                    e.push(model.eval_hz(0, f) * jw);
+                }
+            }
+            fit_percent(&m, &e)
+        };
         println!(
-            "point {i}: {} modes (automatic), fit {:.2} % in 20-1000 Hz, {:.0} ms; modes [Hz] {}",
-            res.model.modes.len(),
-            res.fit_pct[0].1,
+            "point {i}: {} modes (automatic), {:.0} ms; accelerance 1-1000 Hz {:.2} %, receptance 20-1000 Hz {:.2} %",
+            model.modes.len(),
             dt.as_secs_f64() * 1e3,
-            modes.join(" ")
+            score(0.0, 2),
+            score(20.0, 0)
         );
     }
     Ok(())
