@@ -340,20 +340,7 @@ fn fit_order(
 
 /// Weighted noise energy implied by the coherence: Σ w² |F|² (1−γ²)/γ².
 fn noise_floor(prep: &Prepared) -> Option<f64> {
-    let mut acc = 0.0;
-    let mut any = false;
-    for (ci, ch) in prep.band.channels.iter().enumerate() {
-        let Some(g) = &ch.coherence else { continue };
-        any = true;
-        for (k, &g) in g.iter().enumerate() {
-            let w = prep.w[ci][k];
-            if w > 0.0 {
-                let g = g.clamp(1e-6, 1.0);
-                acc += w * w * prep.h[ci][k].norm_sqr() * (1.0 - g) / g;
-            }
-        }
-    }
-    any.then_some(acc)
+    noise_per_line(prep).map(|v| v.iter().sum())
 }
 
 /// Weighted noise energy per line implied by the coherence (summed over channels), as in
