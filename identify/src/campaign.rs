@@ -356,19 +356,7 @@ fn drop_unsupported_residuals(
 
 /// Per-channel fit of `model` against `frf` within `band`.
 pub fn channel_fits(model: &ModalModel, frf: &Frf, band: (f64, f64)) -> Vec<ChannelFit> {
-    let b = frf.band(band.0, band.1);
-    b.channels
-        .iter()
-        .filter_map(|c| {
-            let ci = model.channel_index(c.channel)?;
-            let h: Vec<_> = b.freqs_hz.iter().map(|&f| model.eval_hz(ci, f)).collect();
-            Some(ChannelFit {
-                channel: c.channel,
-                fit_pct: fit_percent(&c.h, &h),
-                noise_limit_pct: None,
-            })
-        })
-        .collect()
+    channel_fits_as(model, frf, band, 0, None)
 }
 
 /// A measured FRF matrix at one pose: the input of [`identify_frfs`].
