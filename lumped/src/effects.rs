@@ -1,0 +1,1 @@
+//! Hidden effects (to be written).
