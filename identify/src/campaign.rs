@@ -6,7 +6,9 @@ use crate::error::{Error, Result};
 use crate::frf::{fit_percent, Frf};
 use crate::interpolate::{Method, TwinEvaluator};
 use crate::model::ModalModel;
-use crate::plan::{campaign_exclusions, plan_pose, select_channels, EstimateFacts, PosePlan};
+use crate::plan::{
+    campaign_exclusions, plan_pose, select_channels, Bands, EstimateFacts, PosePlan,
+};
 use crate::rational_fit::{fit_frf, refine_from, FitOptions, Weighting};
 use crate::spectra::{estimate_frf, FrfOptions};
 use crate::stabilization::StabilizationDiagram;
@@ -123,11 +125,13 @@ pub const QUALITY_WARNING_BELOW: f64 = 90.0;
 /// ([`ChannelFit::noise_limit_pct`]) gets no quality warning.
 pub const NOISE_LIMIT_MARGIN: f64 = 5.0;
 
-fn band_of(frf: &Frf, opts: &FitOptions) -> (f64, f64) {
+fn band_of(frf: &Frf, opts: &FitOptions) -> Bands {
     let lo = frf.freqs_hz.first().copied().unwrap_or(0.0);
     let hi = frf.freqs_hz.last().copied().unwrap_or(0.0);
-    opts.band_hz
-        .map_or((lo, hi), |(a, b)| (a.max(lo), b.min(hi)))
+    Bands::whole(
+        opts.band_hz
+            .map_or((lo, hi), |(a, b)| (a.max(lo), b.min(hi))),
+    )
 }
 
 /// Per-channel agreement of `model` with `frf` within `band`, averaged over the octaves
@@ -140,9 +144,10 @@ fn band_of(frf: &Frf, opts: &FitOptions) -> (f64, f64) {
 pub fn octave_fits(
     model: &ModalModel,
     frf: &Frf,
-    band: (f64, f64),
+    bands: &Bands,
     averages: Option<usize>,
 ) -> Vec<ChannelFit> {
+    let band = bands.pose;
     let lo = band.0.max(
         frf.freqs_hz
             .iter()
@@ -161,7 +166,7 @@ pub fn octave_fits(
     edges.push(band.1);
     let parts: Vec<Vec<ChannelFit>> = edges
         .windows(2)
-        .map(|e| relative_fits(model, frf, (e[0], e[1]), averages))
+        .map(|e| relative_fits(model, frf, &bands.within((e[0], e[1])), averages))
         .filter(|f| !f.is_empty())
         .collect();
     let Some(first) = parts.first() else {
@@ -184,6 +189,7 @@ pub fn octave_fits(
                     v.iter().sum::<f64>() / v.len() as f64
                 },
                 noise_limit_pct: None,
+                band_hz: bands.own(c.channel),
             }
         })
         .collect()
@@ -203,8 +209,8 @@ fn h1_variance(h: Complex64, g: f64, n: usize) -> f64 {
 /// Per-channel `100 − mean_k |H − F|² / σ_k²` over the lines of `band`, with `σ_k²` the
 /// H1 variance of each line ([`h1_variance`]): the likelihood of `model` given the
 /// estimate, as a score (a model within the noise scores about 99).
-fn noise_scores(model: &ModalModel, frf: &Frf, band: (f64, f64), n: usize) -> Vec<ChannelFit> {
-    let b = frf.band(band.0, band.1);
+fn noise_scores(model: &ModalModel, frf: &Frf, bands: &Bands, n: usize) -> Vec<ChannelFit> {
+    let b = frf.band(bands.pose.0, bands.pose.1);
     b.channels
         .iter()
         .filter_map(|c| {
@@ -212,7 +218,11 @@ fn noise_scores(model: &ModalModel, frf: &Frf, band: (f64, f64), n: usize) -> Ve
             let g = c.coherence.as_ref()?;
             let peak = c.h.iter().map(|h| h.norm_sqr()).fold(0.0, f64::max);
             let (mut chi2, mut lines) = (0.0, 0usize);
+            let (lo, hi) = bands.of(c.channel);
             for (k, &f) in b.freqs_hz.iter().enumerate() {
+                if f < lo || f > hi {
+                    continue;
+                }
                 let var = h1_variance(c.h[k], g[k], n).max(1e-12 * peak);
                 if var > 0.0 {
                     chi2 += (c.h[k] - model.eval_hz(ci, f)).norm_sqr() / var;
@@ -227,6 +237,7 @@ fn noise_scores(model: &ModalModel, frf: &Frf, band: (f64, f64), n: usize) -> Ve
                     f64::NAN
                 },
                 noise_limit_pct: None,
+                band_hz: bands.own(c.channel),
             })
         })
         .collect()
@@ -238,16 +249,20 @@ fn noise_scores(model: &ModalModel, frf: &Frf, band: (f64, f64), n: usize) -> Ve
 fn relative_fits(
     model: &ModalModel,
     frf: &Frf,
-    band: (f64, f64),
+    bands: &Bands,
     averages: Option<usize>,
 ) -> Vec<ChannelFit> {
-    let b = frf.band(band.0, band.1);
+    let b = frf.band(bands.pose.0, bands.pose.1);
     b.channels
         .iter()
         .filter_map(|c| {
             let ci = model.channel_index(c.channel)?;
             let (mut err, mut norm, mut noise) = (0.0, 0.0, 0.0);
+            let (lo, hi) = bands.of(c.channel);
             for (k, &f) in b.freqs_hz.iter().enumerate() {
+                if f < lo || f > hi {
+                    continue;
+                }
                 err += (c.h[k] - model.eval_hz(ci, f)).norm_sqr();
                 norm += c.h[k].norm_sqr();
                 if let (Some(g), Some(n)) = (&c.coherence, averages) {
@@ -264,6 +279,7 @@ fn relative_fits(
                     f64::NAN
                 },
                 noise_limit_pct: None,
+                band_hz: bands.own(c.channel),
             })
         })
         .collect()
@@ -274,30 +290,35 @@ fn relative_fits(
 pub fn channel_fits_as(
     model: &ModalModel,
     frf: &Frf,
-    band: (f64, f64),
+    bands: &Bands,
     power: i32,
     averages: Option<usize>,
 ) -> Vec<ChannelFit> {
-    let b = frf.band(band.0, band.1);
-    let jw: Vec<Complex64> = b
-        .freqs_hz
-        .iter()
-        .map(|&f| Complex64::new(0.0, 2.0 * std::f64::consts::PI * f).powi(power))
-        .collect();
-    b.channels
+    frf.channels
         .iter()
         .filter_map(|c| {
             let ci = model.channel_index(c.channel)?;
-            let h: Vec<_> = c.h.iter().zip(&jw).map(|(h, j)| h * j).collect();
-            let m: Vec<_> = b
-                .freqs_hz
+            let (lo, hi) = bands.of(c.channel);
+            let lines: Vec<usize> = (0..frf.freqs_hz.len())
+                .filter(|&k| frf.freqs_hz[k] >= lo && frf.freqs_hz[k] <= hi)
+                .collect();
+            let jw = |f: f64| Complex64::new(0.0, 2.0 * std::f64::consts::PI * f).powi(power);
+            let h: Vec<_> = lines
                 .iter()
-                .zip(&jw)
-                .map(|(&f, j)| model.eval_hz(ci, f) * j)
+                .map(|&k| c.h[k] * jw(frf.freqs_hz[k]))
+                .collect();
+            let m: Vec<_> = lines
+                .iter()
+                .map(|&k| model.eval_hz(ci, frf.freqs_hz[k]) * jw(frf.freqs_hz[k]))
                 .collect();
             let noise_limit_pct = match (&c.coherence, averages) {
                 (Some(g), Some(n)) if n > 1 => {
-                    let var: f64 = h.iter().zip(g).map(|(h, &g)| h1_variance(*h, g, n)).sum();
+                    let vars: Vec<f64> = h
+                        .iter()
+                        .zip(&lines)
+                        .map(|(h, &k)| h1_variance(*h, g[k], n))
+                        .collect();
+                    let var = vars.iter().sum::<f64>() * line_noise_scale(&h, &vars);
                     let mean = h.iter().sum::<Complex64>() / h.len().max(1) as f64;
                     let spread: f64 = h.iter().map(|v| (v - mean).norm_sqr()).sum();
                     (spread > 0.0).then(|| 100.0 * (1.0 - (var / spread).sqrt()))
@@ -308,9 +329,34 @@ pub fn channel_fits_as(
                 channel: c.channel,
                 fit_pct: fit_percent(&h, &m),
                 noise_limit_pct,
+                band_hz: bands.own(c.channel),
             })
         })
         .collect()
+}
+
+/// How much larger the scatter of an estimate from line to line is than its coherence
+/// predicts (≥ 1): the median of `|H_k − (H_{k−1} + H_{k+1})/2|² / (1.5 σ_k²)` over the
+/// lines, divided by ln 2 (the median of an exponential variable of unit mean). The
+/// coherence sees only noise that differs between averages; leakage between hits that
+/// ring into each other, or a window's bias, scatter the estimate too (measured on the
+/// tryout campaign: its H1 misses the truth by about √3 times the coherence's σ, and this
+/// factor finds 2.5–3). A smooth FRF's curvature reaches the median only when most lines
+/// sit on sharp peaks. Returns 1 when it cannot tell (fewer than 9 lines).
+pub(crate) fn line_noise_scale(h: &[Complex64], vars: &[f64]) -> f64 {
+    if h.len() < 9 {
+        return 1.0;
+    }
+    let mut r: Vec<f64> = (1..h.len() - 1)
+        .filter(|&k| vars[k] > 0.0)
+        .map(|k| (h[k] - (h[k - 1] + h[k + 1]) * 0.5).norm_sqr() / (1.5 * vars[k]))
+        .collect();
+    if r.len() < 7 {
+        return 1.0;
+    }
+    let mid = r.len() / 2;
+    let (_, m, _) = r.select_nth_unstable_by(mid, f64::total_cmp);
+    (*m / std::f64::consts::LN_2).max(1.0)
 }
 
 /// A channel's constant residual `d` (the receptance of the modes above the band) fitted
@@ -322,7 +368,7 @@ fn drop_unsupported_residuals(
     model: &mut ModalModel,
     windowed: &mut ModalModel,
     frf: &Frf,
-    band: (f64, f64),
+    band: &Bands,
     power: i32,
 ) -> Vec<String> {
     let mut notes = Vec::new();
@@ -356,7 +402,7 @@ fn drop_unsupported_residuals(
 
 /// Per-channel fit of `model` against `frf` within `band`.
 pub fn channel_fits(model: &ModalModel, frf: &Frf, band: (f64, f64)) -> Vec<ChannelFit> {
-    channel_fits_as(model, frf, band, 0, None)
+    channel_fits_as(model, frf, &Bands::whole(band), 0, None)
 }
 
 /// A measured FRF matrix at one pose: the input of [`identify_frfs`].
@@ -536,18 +582,29 @@ pub fn identify_frfs(
             }
             let power = f.plan.measured_as.map_or(0, |m| m.power());
             if power > 0 {
-                let notes =
-                    drop_unsupported_residuals(&mut f.model, &mut windowed, &f.frf, band, power);
+                let notes = drop_unsupported_residuals(
+                    &mut f.model,
+                    &mut windowed,
+                    &f.frf,
+                    &f.plan.bands(band.pose),
+                    power,
+                );
                 f.plan.alternatives.extend(notes);
             }
-            let fit = channel_fits_as(&windowed, &f.frf, band, power, f.plan.averages);
-            f.plan.quality_warnings = quality_warnings(f.pose, &fit, band, f.plan.measured_as);
+            let fit = channel_fits_as(
+                &windowed,
+                &f.frf,
+                &f.plan.bands(band.pose),
+                power,
+                f.plan.averages,
+            );
+            f.plan.quality_warnings = quality_warnings(f.pose, &fit, band.pose, f.plan.measured_as);
             warnings.extend(f.plan.quality_warnings.iter().cloned());
             PoseModel {
                 pose: f.pose,
                 fit,
                 plan: Some(f.plan),
-                band_hz: [band.0, band.1],
+                band_hz: [band.pose.0, band.pose.1],
                 model: f.model,
                 frf: f.frf,
                 order: f.order,
@@ -704,9 +761,9 @@ fn track_modes(fits: &mut [PoseFit]) -> Result<Vec<String>> {
             if let Some(s) = fits[i].sigma {
                 own.shift_poles(-s);
             }
-            mean_fit(&channel_fits(&own, &fits[i].frf, band))
+            mean_fit(&channel_fits_as(&own, &fits[i].frf, &band, 0, None))
         };
-        let carried = mean_fit(&channel_fits(&refined, &fits[i].frf, band));
+        let carried = mean_fit(&channel_fits_as(&refined, &fits[i].frf, &band, 0, None));
         // The neighbour's modes carried over can get stuck far from this pose's optimum
         // (modes move by several per cent across a workspace); when the pose's own fit has
         // the same modes and fits better, keep it, matched to the neighbour's mode order.
@@ -784,9 +841,9 @@ fn fit_pose(
     };
     let score = |r: &crate::rational_fit::FitResult| {
         let f = if likelihood {
-            noise_scores(&r.model, frf, band, plan_averages.unwrap_or(2))
+            noise_scores(&r.model, frf, &band, plan_averages.unwrap_or(2))
         } else {
-            octave_fits(&r.model, frf, band, plan_averages)
+            octave_fits(&r.model, frf, &band, plan_averages)
         };
         let worst = f.iter().map(|c| c.fit_pct).fold(f64::INFINITY, f64::min);
         (mean_fit(&f), worst)
@@ -925,12 +982,19 @@ fn resplit_coincident_modes(fits: &mut [PoseFit]) -> Vec<String> {
             continue;
         }
         let band = band_of(&fits[i].frf, &fits[i].options);
-        let before = mean_fit(&channel_fits(&fits[i].model, &fits[i].frf, band));
+        let before = mean_fit(&channel_fits_as(
+            &fits[i].model,
+            &fits[i].frf,
+            &band,
+            0,
+            None,
+        ));
         for (a, b) in pairs {
-            let Some(trial) = ridge_split(&fits[i].model, &pred, &fits[i].frf, band, (a, b)) else {
+            let Some(trial) = ridge_split(&fits[i].model, &pred, &fits[i].frf, band.pose, (a, b))
+            else {
                 continue;
             };
-            let after = mean_fit(&channel_fits(&trial, &fits[i].frf, band));
+            let after = mean_fit(&channel_fits_as(&trial, &fits[i].frf, &band, 0, None));
             if after >= before - 0.05 {
                 notes.push(format!(
                     "pose {:?}: modes at {:.1} and {:.1} Hz coincide (the data fix only their \
@@ -1067,7 +1131,13 @@ fn quality_warnings(
                  {what} at {:.1} % in {:.0}-{:.0} Hz (target {QUALITY_WARNING_BELOW} %); \
                  check that channel's coherence and band in the report, try --order with more \
                  modes, --weighting ml, or narrow --fmin/--fmax to the modes of interest",
-                pose[0], pose[1], pose[2], c.channel, c.fit_pct, band.0, band.1
+                pose[0],
+                pose[1],
+                pose[2],
+                c.channel,
+                c.fit_pct,
+                c.band_hz.map_or(band.0, |b| b[0]),
+                c.band_hz.map_or(band.1, |b| b[1])
             )
         })
         .collect()
@@ -1110,9 +1180,13 @@ pub fn interpolation_info(twin: &Twin) -> Result<InterpolationInfo> {
                 m.shift_poles(-s);
             }
             let band = (p.band_hz[0], p.band_hz[1]);
+            let bands = p
+                .plan
+                .as_ref()
+                .map_or(Bands::whole(band), |pl| pl.bands(band));
             info.leave_one_out.push(LooEntry {
                 pose: p.pose,
-                fit: channel_fits(&m, &p.frf, band),
+                fit: channel_fits_as(&m, &p.frf, &bands, 0, None),
             });
         }
         methods.dedup();

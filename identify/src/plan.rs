@@ -43,6 +43,14 @@ pub struct ChannelDecision {
     /// Fraction of the band's lines whose coherence is significant (when judged).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub significant_fraction: Option<f64>,
+    /// The channel's own trusted band \[Hz\] inside the pose band, when its coherence
+    /// reaches the trust level on a narrower range than the pose's best channel (a cross
+    /// channel whose response sinks into the noise at high frequency). The channel's fit
+    /// and noise limit are judged inside it; the fit itself still sees the lines outside
+    /// with their (low) coherence weight: zeroing them was measured to cost the
+    /// interpolated twin 2-7 points on the tryout campaign's unmeasured poses.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub band_hz: Option<[f64; 2]>,
     /// Why.
     pub reason: String,
 }
@@ -71,6 +79,56 @@ pub struct PosePlan {
     /// FRF (accelerance for an accelerometer), the one the user's own estimate shows.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub measured_as: Option<MeasuredAs>,
+}
+
+/// The band of each channel: the pose's, or the channel's own narrower one
+/// ([`ChannelDecision::band_hz`]). Every fit figure is computed per channel in its band.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Bands {
+    /// The pose band \[Hz\].
+    pub pose: (f64, f64),
+    /// Channels with a narrower band of their own.
+    pub narrower: Vec<(Channel, (f64, f64))>,
+}
+
+impl Bands {
+    /// Every channel in `band`.
+    pub fn whole(band: (f64, f64)) -> Self {
+        Bands {
+            pose: band,
+            narrower: Vec::new(),
+        }
+    }
+
+    /// The band of `channel`: its own (inside the pose band) or the pose's.
+    pub fn of(&self, channel: Channel) -> (f64, f64) {
+        self.narrower
+            .iter()
+            .find(|(c, _)| *c == channel)
+            .map_or(self.pose, |&(_, (a, b))| {
+                (a.max(self.pose.0), b.min(self.pose.1))
+            })
+    }
+
+    /// The same channel bands inside another pose band `band` (a part of it).
+    pub fn within(&self, band: (f64, f64)) -> Self {
+        Bands {
+            pose: band,
+            narrower: self.narrower.clone(),
+        }
+    }
+
+    /// `Some(band)` of `channel` when it differs from the pose band.
+    pub fn own(&self, channel: Channel) -> Option<[f64; 2]> {
+        let b = self.of(channel);
+        (b != self.pose).then_some([b.0, b.1])
+    }
+}
+
+impl From<(f64, f64)> for Bands {
+    fn from(band: (f64, f64)) -> Self {
+        Bands::whole(band)
+    }
 }
 
 /// What the response sensor measured: the FRF the data gives directly.
@@ -106,6 +164,23 @@ impl MeasuredAs {
 }
 
 impl PosePlan {
+    /// The used channels' own narrower bands (see [`ChannelDecision::band_hz`]).
+    pub fn channel_bands(&self) -> Vec<(Channel, (f64, f64))> {
+        self.channels
+            .iter()
+            .filter(|c| c.used)
+            .filter_map(|c| c.band_hz.map(|b| (c.channel, (b[0], b[1]))))
+            .collect()
+    }
+
+    /// The bands in which each channel is fitted and judged, inside `pose_band`.
+    pub fn bands(&self, pose_band: (f64, f64)) -> Bands {
+        Bands {
+            pose: pose_band,
+            narrower: self.channel_bands(),
+        }
+    }
+
     /// The channels the fit uses.
     pub fn used_channels(&self) -> Vec<Channel> {
         self.channels
@@ -203,12 +278,14 @@ pub fn plan_pose(
                 channel: c.channel,
                 used: false,
                 significant_fraction: None,
+                band_hz: None,
                 reason: "not identified (the FRF is zero on every line)".into(),
             },
             _ if excluded.contains(&c.channel) => ChannelDecision {
                 channel: c.channel,
                 used: false,
                 significant_fraction: None,
+                band_hz: None,
                 reason: "not identified (no coherent response at most poses of the campaign)"
                     .into(),
             },
@@ -220,6 +297,7 @@ pub fn plan_pose(
                     channel: c.channel,
                     used,
                     significant_fraction: Some(frac),
+                    band_hz: None,
                     reason: if used {
                         format!(
                             "coherence above the noise-only level {x:.2} ({} averages) on {:.0} % of the lines",
@@ -239,6 +317,7 @@ pub fn plan_pose(
                 channel: c.channel,
                 used: true,
                 significant_fraction: None,
+                band_hz: None,
                 reason: "no coherence to judge by: used".into(),
             },
         };
@@ -270,24 +349,14 @@ pub fn plan_pose(
             })
             .collect();
         let fb: Vec<f64> = in_band.iter().map(|&k| f[k]).collect();
-        let sm = smooth_octave(&fb, &best, 1.0 / 12.0);
-        let mut nsr: Vec<f64> = sm
-            .iter()
-            .map(|&g| (1.0 - g.clamp(1e-6, 1.0 - 1e-9)) / g.clamp(1e-6, 1.0))
-            .collect();
-        nsr.sort_by(f64::total_cmp);
-        let med = nsr[nsr.len() / 2];
-        let trust =
-            MIN_TRUST_COHERENCE.max((1.0 / (1.0 + NSR_FACTOR * med)).min(MAX_TRUST_COHERENCE));
-        let first = sm.iter().position(|&g| g >= trust);
-        let last = sm.iter().rposition(|&g| g >= trust);
-        if let (Some(a), Some(b)) = (first, last) {
-            if b > a + 8 && (fb[a] > lo || fb[b] < hi) {
-                lo = fb[a];
-                hi = fb[b];
+        if let Some(t) = trusted_range(&fb, &best) {
+            if fb[t.last] > fb[t.first] && (fb[t.first] > lo || fb[t.last] < hi) {
+                lo = fb[t.first];
+                hi = fb[t.last];
                 plan.band_evidence.push(format!(
-                    "coherence (smoothed over 1/6 octave) reaches the trust level {trust:.3} \
-                     (median noise-to-signal {med:.1e}) from {lo:.1} to {hi:.1} Hz"
+                    "coherence (smoothed over 1/6 octave) reaches the trust level {:.3} \
+                     (median noise-to-signal {:.1e}) from {lo:.1} to {hi:.1} Hz",
+                    t.trust, t.median_nsr
                 ));
             }
         }
@@ -308,7 +377,68 @@ pub fn plan_pose(
         }
     }
     plan.band_hz = [lo, hi];
+    channel_bands(frf, &mut plan);
     plan
+}
+
+/// Where a (smoothed) coherence is trustworthy: the first and last line reaching the
+/// trust level, the level and the median noise-to-signal ratio it came from.
+struct Trusted {
+    first: usize,
+    last: usize,
+    trust: f64,
+    median_nsr: f64,
+}
+
+/// The trust rule of the module docs on one coherence curve `g` over lines `fb`.
+fn trusted_range(fb: &[f64], g: &[f64]) -> Option<Trusted> {
+    if fb.len() <= 8 {
+        return None;
+    }
+    let sm = smooth_octave(fb, g, 1.0 / 12.0);
+    let mut nsr: Vec<f64> = sm
+        .iter()
+        .map(|&g| (1.0 - g.clamp(1e-6, 1.0 - 1e-9)) / g.clamp(1e-6, 1.0))
+        .collect();
+    nsr.sort_by(f64::total_cmp);
+    let median_nsr = nsr[nsr.len() / 2];
+    let trust =
+        MIN_TRUST_COHERENCE.max((1.0 / (1.0 + NSR_FACTOR * median_nsr)).min(MAX_TRUST_COHERENCE));
+    let first = sm.iter().position(|&g| g >= trust)?;
+    let last = sm.iter().rposition(|&g| g >= trust)?;
+    (last > first + 8).then_some(Trusted {
+        first,
+        last,
+        trust,
+        median_nsr,
+    })
+}
+
+/// Each used channel with a coherence gets its own trusted band inside the pose band when
+/// the trust rule, applied to its coherence alone, ends it more than 5 % (in frequency)
+/// inside: a weak cross channel is not judged where it is noise.
+fn channel_bands(frf: &Frf, plan: &mut PosePlan) {
+    let [lo, hi] = plan.band_hz;
+    let f = &frf.freqs_hz;
+    let in_band: Vec<usize> = (0..f.len()).filter(|&k| f[k] >= lo && f[k] <= hi).collect();
+    let fb: Vec<f64> = in_band.iter().map(|&k| f[k]).collect();
+    for (c, d) in frf.channels.iter().zip(plan.channels.iter_mut()) {
+        let Some(g) = c.coherence.as_ref().filter(|_| d.used) else {
+            continue;
+        };
+        let gb: Vec<f64> = in_band.iter().map(|&k| g[k]).collect();
+        let Some(t) = trusted_range(&fb, &gb) else {
+            continue;
+        };
+        let (a, b) = (fb[t.first], fb[t.last]);
+        if a > lo * 1.05 || b < hi / 1.05 {
+            d.band_hz = Some([a, b]);
+            d.reason.push_str(&format!(
+                "; trusted (coherence >= {:.2}) only in {a:.0}-{b:.0} Hz: judged there",
+                t.trust
+            ));
+        }
+    }
 }
 
 /// Channels that carry no coherent response at most poses (at least half of the poses
@@ -360,6 +490,27 @@ mod tests {
     use num_complex::Complex64;
 
     #[test]
+    fn line_noise_scale_finds_scatter_the_coherence_misses() {
+        // a smooth FRF with white scatter 3x the variance the coherence predicts
+        let mut lcg = crate::test_util::Lcg(3);
+        let n = 400;
+        let h: Vec<Complex64> = (0..n)
+            .map(|k| {
+                let x = k as f64 / n as f64;
+                Complex64::new(1.0 + x, -x * x)
+                    + Complex64::new(lcg.uniform(), lcg.uniform()) * 0.06
+            })
+            .collect();
+        // uniform(-0.5, 0.5) * 0.06 per part: variance 2 * 0.06² / 12
+        let true_var = 2.0 * 0.06f64.powi(2) / 12.0;
+        let scale = crate::campaign::line_noise_scale(&h, &vec![true_var / 3.0; n]);
+        assert!(scale > 2.3 && scale < 3.9, "{scale}");
+        // scatter as predicted: no scale
+        let one = crate::campaign::line_noise_scale(&h, &vec![true_var; n]);
+        assert!(one < 1.4, "{one}");
+    }
+
+    #[test]
     fn null_coherence_level_matches_beta_tail() {
         // P(γ² > x) = (1 − x)^(n−1) for pure noise with n averages
         for n in [2usize, 5, 30] {
@@ -383,9 +534,22 @@ mod tests {
             h: vec![Complex64::new(1.0, 0.0); f.len()],
             coherence: Some(g),
         };
+        // a cross channel whose response sinks into the noise above 400 Hz
+        let cross: Vec<f64> = f
+            .iter()
+            .map(|&x| match x {
+                x if x < 50.0 => 0.3,
+                x if x < 400.0 => 0.9,
+                _ => 0.5,
+            })
+            .collect();
         let frf = Frf {
             freqs_hz: f.clone(),
-            channels: vec![ch(Axis::X, direct), ch(Axis::Z, noise)],
+            channels: vec![
+                ch(Axis::X, direct),
+                ch(Axis::Z, noise),
+                ch(Axis::Y, cross),
+            ],
         };
         let facts = EstimateFacts {
             excitation_band_hz: Some((1.0, 900.0)),
@@ -401,6 +565,11 @@ mod tests {
             p.band_hz
         );
         assert!((p.band_hz[1] - 900.0).abs() < 1.0);
+        // the direct channel has the pose band; the cross channel its own, judged there
+        assert_eq!(p.channels[0].band_hz, None);
+        let b = p.channels[2].band_hz.expect("cross channel band");
+        assert!(b[1] > 350.0 && b[1] < 400.0, "{b:?}");
+        assert_eq!(p.bands((50.0, 900.0)).of(p.channels[2].channel).1, b[1]);
         // the user band only narrows
         let q = plan_pose(&frf, &facts, Some((100.0, 2000.0)), &[]);
         assert_eq!(q.band_hz, [100.0, 900.0]);

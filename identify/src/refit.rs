@@ -50,7 +50,7 @@
 
 use crate::axis::Axis;
 use crate::axis::Channel;
-use crate::campaign::channel_fits;
+use crate::campaign::{channel_fits, channel_fits_as};
 use crate::error::{Error, Result};
 use crate::frf::{fit_percent_real, Frf};
 use crate::interpolate::{simulate_twin, TwinEvaluator};
@@ -1127,7 +1127,11 @@ pub fn refit(
         if i == near {
             p.frf = new_frf.clone();
         }
-        p.fit = channel_fits(&p.model, &p.frf, (p.band_hz[0], p.band_hz[1]));
+        let band = (p.band_hz[0], p.band_hz[1]);
+        p.fit = match &p.plan {
+            Some(plan) => channel_fits_as(&p.model, &p.frf, &plan.bands(band), 0, None),
+            None => channel_fits(&p.model, &p.frf, band),
+        };
         report.pose_weights.push((p.pose, w));
     }
     report.modes = (0..old.modes.len())

@@ -57,6 +57,10 @@ pub struct ChannelFit {
     /// that carries mostly noise).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub noise_limit_pct: Option<f64>,
+    /// The band \[Hz\] this channel was judged in, when narrower than the pose band (a
+    /// channel whose coherence is trustworthy only in part of it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub band_hz: Option<[f64; 2]>,
 }
 
 /// A fit percentage, `null` (how serde_json writes a non-finite number) read as `-inf`.

@@ -144,15 +144,19 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
         let fits: Vec<String> = p
             .fit
             .iter()
-            .map(|f| match f.noise_limit_pct {
-                // a channel the noise keeps well below 100 %: say what the data allow
-                Some(l) if l < 97.0 => {
-                    format!(
-                        "{} {:.2} % (its noise allows {:.1} %)",
+            .map(|f| {
+                let band = f
+                    .band_hz
+                    .map(|b| format!(" in {:.0}-{:.0} Hz", b[0], b[1]))
+                    .unwrap_or_default();
+                match f.noise_limit_pct {
+                    // a channel the noise keeps well below 100 %: say what the data allow
+                    Some(l) if l < 97.0 => format!(
+                        "{} {:.2} %{band} (its noise allows {:.1} %)",
                         f.channel, f.fit_pct, l
-                    )
+                    ),
+                    _ => format!("{} {:.2} %{band}", f.channel, f.fit_pct),
                 }
-                _ => format!("{} {:.2} %", f.channel, f.fit_pct),
             })
             .collect();
         let of = p
