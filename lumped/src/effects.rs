@@ -1,1 +1,678 @@
-//! Hidden effects (to be written).
+//! Hidden effects of SPEC section 4, each with parameters drawn from a seed, and the
+//! answer `mtwin diagnose` should give, computed from the structure's eigen-analysis.
+//!
+//! All tests are at the workspace centre [`CENTRE`] on a given base machine (the one the
+//! twin was identified from).
+//!
+//! | effect | what is changed | records | answer details |
+//! |---|---|---|---|
+//! | `healthy` | nothing | milling at 2 speeds | — |
+//! | `mode_change` | one joint's stiffness ×0.55…0.85 and/or dashpots ×1.6…2.5 | impact x, y | `freq_hz`, `new_freq_hz`, `damping`, `new_damping`, `axis` (+ joint, factors) |
+//! | `unmodeled_mode` | a 0.4–1.5 kg mass on a spring at the tool tip, tuned to 500–2400 Hz along x or y | impact x, y | `freq_hz`, `damping`, `axis` |
+//! | `pose_dependence` | a guideway's stiffness changing 100–200 %/m along its axis | impact x, y at centre ± span | `axis_of_variation`, `freq_shift_pct_per_m` (+ nominal rate, mode) |
+//! | `nonlinearity` | hardening cubic spring in a screw or guide | one impact record, hits at 3 force levels | `freq_hz`, `kind`, `axis` |
+//! | `time_delay` | responses 2–6 samples late | impact x, y | `delay_s` |
+//! | `cross_coupling` | a guideway turned 15–30° | impact x, y | `channel`, `freq_hz` |
+//! | `disturbance` | 1–2 sinusoids entering through the bed, 15–40 % of the response RMS | milling at 2 speeds | `freq_hz` (list) |
+
+use crate::excitation::{Hammer, Hit, Milling};
+use crate::measure::{
+    impact_clean, milling_clean, milling_comments, run_input, standard_hits, unit, Clean, Setup,
+};
+use crate::modal::{pair_modes, Mode};
+use crate::record::Record;
+use crate::sim::Input;
+use crate::structure::{
+    CubicSpring, ExtraMass, Joint, Machine, Oblique, Pose, PoseGradient, CENTRE,
+};
+use rand::rngs::StdRng;
+use rand::seq::SliceRandom;
+use rand::{Rng, SeedableRng};
+use serde_json::{json, Value};
+use std::f64::consts::PI;
+
+/// The hidden effects.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Effect {
+    /// Nothing hidden.
+    Healthy,
+    /// A joint lost stiffness and/or gained damping.
+    ModeChange,
+    /// A new mass-spring at the tool tip.
+    UnmodeledMode,
+    /// Stronger position dependence than nominal.
+    PoseDependence,
+    /// A hardening cubic spring in a joint.
+    Nonlinearity,
+    /// Responses delayed by whole samples.
+    TimeDelay,
+    /// An oblique joint: a new cross channel.
+    CrossCoupling,
+    /// Outside vibration during milling.
+    Disturbance,
+}
+
+impl Effect {
+    /// Every effect.
+    pub const ALL: [Effect; 8] = [
+        Effect::Healthy,
+        Effect::ModeChange,
+        Effect::UnmodeledMode,
+        Effect::PoseDependence,
+        Effect::Nonlinearity,
+        Effect::TimeDelay,
+        Effect::CrossCoupling,
+        Effect::Disturbance,
+    ];
+
+    /// The SPEC cause code.
+    pub fn cause(self) -> &'static str {
+        match self {
+            Effect::Healthy => "none",
+            Effect::ModeChange => "mode_change",
+            Effect::UnmodeledMode => "unmodeled_mode",
+            Effect::PoseDependence => "pose_dependence",
+            Effect::Nonlinearity => "nonlinearity",
+            Effect::TimeDelay => "time_delay",
+            Effect::CrossCoupling => "cross_coupling",
+            Effect::Disturbance => "disturbance",
+        }
+    }
+
+    /// Folder name in the dump.
+    pub fn folder(self) -> &'static str {
+        match self {
+            Effect::Healthy => "healthy",
+            e => e.cause(),
+        }
+    }
+}
+
+/// Record lengths of a case.
+#[derive(Clone, Debug)]
+pub struct CaseOptions {
+    /// Seconds per impact record.
+    pub impact_s: f64,
+    /// Hits per impact record.
+    pub hits: usize,
+    /// Seconds per milling record.
+    pub milling_s: f64,
+    /// Instrumentation of the impact tests.
+    pub impact: Setup,
+    /// Instrumentation of the milling tests.
+    pub milling: Setup,
+}
+
+impl Default for CaseOptions {
+    /// 2 s impact records with 5 hits, 3 s milling records.
+    fn default() -> Self {
+        CaseOptions {
+            impact_s: 2.0,
+            hits: 5,
+            milling_s: 3.0,
+            impact: Setup::impact(),
+            milling: Setup::displacement(),
+        }
+    }
+}
+
+/// One generated case.
+#[derive(Clone, Debug)]
+pub struct Case {
+    /// The effect.
+    pub effect: Effect,
+    /// The machine that made the data (base machine plus the effect).
+    pub machine: Machine,
+    /// File name and record.
+    pub records: Vec<(String, Record)>,
+    /// `{"cause": ..., "details": {...}}` as in the tryout data's `answers.json`.
+    pub answer: Value,
+}
+
+const AX: [&str; 3] = ["x", "y", "z"];
+
+/// Modes at the TCP worth naming: within 40–3000 Hz and with a direct-channel peak of at
+/// least `rel` of the largest one.
+pub fn visible(modes: &[Mode], rel: f64) -> Vec<usize> {
+    let top = modes.iter().map(Mode::max_peak).fold(0.0, f64::max);
+    (0..modes.len())
+        .filter(|&i| {
+            let m = &modes[i];
+            !m.real && m.freq_hz > 40.0 && m.freq_hz < 3000.0 && m.max_peak() >= rel * top
+        })
+        .collect()
+}
+
+fn round(v: f64, digits: i32) -> f64 {
+    let s = 10f64.powi(digits);
+    (v * s).round() / s
+}
+
+fn impacts(
+    m: &Machine,
+    o: &CaseOptions,
+    pose: Pose,
+    seed: u64,
+    tag: &str,
+) -> Vec<(String, Record)> {
+    [0usize, 1]
+        .iter()
+        .map(|&a| {
+            let mut r = crate::measure::impact_record(
+                m,
+                &o.impact,
+                pose,
+                a,
+                o.hits,
+                o.impact_s,
+                seed + a as u64,
+            );
+            r.comments.insert(0, format!("case {tag}"));
+            (format!("imp_{}.csv", AX[a]), r)
+        })
+        .collect()
+}
+
+fn millings(o: &CaseOptions, rng: &mut StdRng) -> Vec<Milling> {
+    let speeds = [7200.0, 8400.0];
+    speeds
+        .iter()
+        .map(|&rpm| {
+            Milling::random(
+                rpm + rng.gen_range(-300.0..300.0f64).round(),
+                rng.gen_range(1.0e-3..2.0e-3),
+                rng,
+            )
+        })
+        .map(|mut m| {
+            m.rpm = m.rpm.round();
+            let _ = o;
+            m
+        })
+        .collect()
+}
+
+/// A start pose for a cut of `seconds` centred on the workspace centre.
+fn cut_start(m: &Milling, seconds: f64) -> Pose {
+    let mut p = CENTRE;
+    p[0] -= m.feed_speed() * seconds / 2.0;
+    p
+}
+
+/// Generate `effect` on `base` from `seed` with default record lengths.
+pub fn case(base: &Machine, effect: Effect, seed: u64) -> Case {
+    case_with(base, effect, seed, &CaseOptions::default())
+}
+
+/// Generate `effect` on `base` from `seed`.
+pub fn case_with(base: &Machine, effect: Effect, seed: u64, o: &CaseOptions) -> Case {
+    let mut rng = StdRng::seed_from_u64(seed ^ 0x5eed_1u64.wrapping_mul(effect as u64 + 1));
+    let fresh = 10_000 + seed * 100;
+    let before = base.modes(CENTRE);
+    let vis = visible(&before, 0.05);
+    let mut machine = base.clone();
+    let mut details = serde_json::Map::new();
+    let records: Vec<(String, Record)> = match effect {
+        Effect::Healthy => {
+            let mills = millings(o, &mut rng);
+            mill_records(&machine, o, &mills, fresh, None)
+        }
+        Effect::ModeChange => {
+            let joints = [
+                Joint::TableScrew,
+                Joint::SaddleGuide,
+                Joint::SaddleScrew,
+                Joint::RamGuide,
+                Joint::RamScrew,
+                Joint::FrontBearing,
+                Joint::RearBearing,
+                Joint::RailMount,
+                Joint::ToolInterface,
+            ];
+            let mut best = None;
+            for _ in 0..40 {
+                let j = *joints.choose(&mut rng).unwrap_or(&Joint::RamGuide);
+                let kind = rng.gen_range(0..3); // 0 stiffness, 1 damping, 2 both
+                let kf = if kind != 1 {
+                    rng.gen_range(0.55..0.85)
+                } else {
+                    1.0
+                };
+                let cf = if kind != 0 {
+                    rng.gen_range(1.6..2.5)
+                } else {
+                    1.0
+                };
+                let cand = base
+                    .clone()
+                    .with_joint_stiffness(j, kf)
+                    .with_joint_damping(j, cf);
+                let after = cand.modes(CENTRE);
+                let pairs = pair_modes(&before, &after);
+                // the visible mode that changed most
+                let mut top: Option<(f64, usize, usize)> = None;
+                for &(i, k, _) in &pairs {
+                    if !vis.contains(&i) {
+                        continue;
+                    }
+                    let df = (after[k].freq_hz / before[i].freq_hz - 1.0).abs();
+                    let dz = (after[k].zeta / before[i].zeta - 1.0).abs();
+                    let score = df.max(dz / 10.0);
+                    if top.is_none_or(|t| score > t.0) {
+                        top = Some((score, i, k));
+                    }
+                }
+                if let Some((score, i, k)) = top {
+                    // a frequency shift ≥ 3 % or a damping change ≥ 40 %
+                    if score >= 0.03 || (after[k].zeta / before[i].zeta - 1.0).abs() >= 0.4 {
+                        best = Some((cand, j, kf, cf, i, after[k].clone()));
+                        break;
+                    }
+                }
+            }
+            let (cand, j, kf, cf, i, new) = best.expect("a visible mode change within 40 draws");
+            let old = &before[i];
+            details.insert("freq_hz".into(), json!(round(old.freq_hz, 2)));
+            details.insert("new_freq_hz".into(), json!(round(new.freq_hz, 2)));
+            details.insert("damping".into(), json!(round(old.zeta, 5)));
+            details.insert("new_damping".into(), json!(round(new.zeta, 5)));
+            details.insert("axis".into(), json!(AX[old.axis()]));
+            details.insert("joint".into(), json!(j.name()));
+            details.insert("stiffness_factor".into(), json!(round(kf, 4)));
+            details.insert("damping_factor".into(), json!(round(cf, 4)));
+            machine = cand;
+            impacts(&machine, o, CENTRE, fresh, "mode_change")
+        }
+        Effect::UnmodeledMode => {
+            let axis = rng.gen_range(0..2usize);
+            let mut f_t = 0.0;
+            for _ in 0..50 {
+                f_t = rng.gen_range(500.0..2400.0);
+                if vis
+                    .iter()
+                    .all(|&i| (before[i].freq_hz / f_t - 1.0).abs() > 0.1)
+                {
+                    break;
+                }
+            }
+            let mass = rng.gen_range(0.4..1.5);
+            let zeta = rng.gen_range(0.015..0.04);
+            let k = mass * (2.0 * PI * f_t).powi(2);
+            let mut ks = [20.0 * k; 3];
+            ks[axis] = k;
+            let cs = ks.map(|kk| 2.0 * zeta * (kk * mass).sqrt());
+            machine.extra_mass = Some(ExtraMass { mass, k: ks, c: cs });
+            let asm = machine.assemble(CENTRE, 0.0);
+            let after = asm.modes();
+            let off = asm.layout.offset(8);
+            // the mode whose kinetic energy sits most in the extra mass along its soft axis
+            let share = |m: &Mode| {
+                let v = m.shape[off + axis].norm_sqr() * mass;
+                let all: f64 = (0..asm.n())
+                    .map(|d| asm.m[(d, d)] * m.shape[d].norm_sqr())
+                    .sum();
+                v / all
+            };
+            let new = after
+                .iter()
+                .filter(|m| !m.real)
+                .max_by(|a, b| share(a).total_cmp(&share(b)))
+                .cloned()
+                .expect("modes");
+            details.insert("freq_hz".into(), json!(round(new.freq_hz, 2)));
+            details.insert("damping".into(), json!(round(new.zeta, 5)));
+            details.insert("axis".into(), json!(AX[new.axis()]));
+            details.insert("mass_kg".into(), json!(round(mass, 4)));
+            details.insert("tuned_hz".into(), json!(round(f_t, 2)));
+            impacts(&machine, o, CENTRE, fresh, "unmodeled_mode")
+        }
+        Effect::PoseDependence => {
+            let choices = [
+                (Joint::TableGuide, 0usize, 0.25),
+                (Joint::SaddleGuide, 1, 0.2),
+                (Joint::RamGuide, 2, 0.1),
+            ];
+            let &(joint, axis, span) = choices.choose(&mut rng).unwrap_or(&choices[0]);
+            let slope = rng.gen_range(1.0..2.0) * if rng.gen_bool(0.5) { 1.0 } else { -1.0 };
+            machine.pose_gradient = Some(PoseGradient {
+                joint,
+                axis,
+                slope_per_m: slope,
+            });
+            let at = |m: &Machine, d: f64| {
+                let mut p = CENTRE;
+                p[axis] += d;
+                m.modes(p)
+            };
+            let rate = |m: &Machine, i: usize| -> (f64, f64) {
+                let c = m.modes(CENTRE);
+                let lo = at(m, -span);
+                let hi = at(m, span);
+                let find = |set: &[Mode]| {
+                    let p = pair_modes(&c, set);
+                    p.iter()
+                        .find(|q| q.0 == i)
+                        .map(|q| set[q.1].freq_hz)
+                        .unwrap_or(c[i].freq_hz)
+                };
+                let (fl, fh) = (find(&lo), find(&hi));
+                (
+                    c[i].freq_hz,
+                    (fh - fl) / c[i].freq_hz / (2.0 * span) * 100.0,
+                )
+            };
+            // the visible mode (of the modified machine) whose rate differs most from nominal
+            let mod_c = machine.modes(CENTRE);
+            let pairs = pair_modes(&before, &mod_c);
+            let mut best = (0.0, 0usize, 0.0, 0.0, 0.0);
+            for &(i, k, _) in &pairs {
+                if !vis.contains(&i) {
+                    continue;
+                }
+                let (f, r_new) = rate(&machine, k);
+                let (_, r_old) = rate(base, i);
+                if (r_new - r_old).abs() > best.0 {
+                    best = ((r_new - r_old).abs(), k, f, r_new, r_old);
+                }
+            }
+            let (_, k, f, r_new, r_old) = best;
+            details.insert("axis_of_variation".into(), json!(AX[axis]));
+            details.insert("freq_shift_pct_per_m".into(), json!(round(r_new, 3)));
+            details.insert("nominal_shift_pct_per_m".into(), json!(round(r_old, 3)));
+            details.insert("freq_hz".into(), json!(round(f, 2)));
+            details.insert("mode_axis".into(), json!(AX[mod_c[k].axis()]));
+            details.insert("joint".into(), json!(joint.name()));
+            details.insert(
+                "poses".into(),
+                json!([-span, span].map(|d| {
+                    let mut p = CENTRE;
+                    p[axis] = round(p[axis] + d, 6);
+                    p
+                })),
+            );
+            let mut recs = Vec::new();
+            for (s, d) in [("lo", -span), ("hi", span)] {
+                let mut p = CENTRE;
+                p[axis] = round(p[axis] + d, 6);
+                for (name, r) in impacts(
+                    &machine,
+                    o,
+                    p,
+                    fresh + if d > 0.0 { 10 } else { 0 },
+                    "pose_dependence",
+                ) {
+                    recs.push((format!("{s}_{name}"), r));
+                }
+            }
+            recs
+        }
+        Effect::Nonlinearity => {
+            let choices = [
+                (Joint::TableScrew, 0usize),
+                (Joint::SaddleScrew, 1),
+                (Joint::SaddleGuide, 0),
+                (Joint::RamGuide, 0),
+                (Joint::RamGuide, 1),
+            ];
+            let &(joint, dir) = choices.choose(&mut rng).unwrap_or(&choices[0]);
+            let asm = base.assemble(CENTRE, o.impact.tip_mass);
+            // the visible mode straining this joint direction most
+            let strain = |m: &Mode| {
+                let mut e = 0.0;
+                let mut all = 0.0;
+                for c in &asm.layout.contacts {
+                    let t = asm.layout.contact_map(c);
+                    let tc = t.map(|v| num_complex::Complex64::new(v, 0.0));
+                    let d = tc * &m.shape;
+                    for dd in 0..3 {
+                        let e_dir = c.frame.column(dd);
+                        let comp: num_complex::Complex64 = (0..3).map(|r| d[r] * e_dir[r]).sum();
+                        let w = c.k[dd] * comp.norm_sqr();
+                        all += w;
+                        if c.joint == joint && dd == dir {
+                            e += w;
+                        }
+                    }
+                }
+                e / all.max(f64::MIN_POSITIVE)
+            };
+            let i = *vis
+                .iter()
+                .max_by(|&&a, &&b| {
+                    (strain(&before[a]) * before[a].max_peak())
+                        .total_cmp(&(strain(&before[b]) * before[b].max_peak()))
+                })
+                .unwrap_or(&0);
+            let mode = before[i].clone();
+            let hammer_axis = mode.axis().min(1);
+            let levels = [60.0, 300.0, 1200.0];
+            let defl = crate::sim::static_joint_deflection(
+                &asm,
+                joint,
+                dir,
+                unit(hammer_axis).map(|v| v * levels[2]),
+            );
+            let k_lin = base.joints[joint.index()].k[dir].max(1.0);
+            let alpha = rng.gen_range(0.3..0.8);
+            // k3 δ² = α k at three times the static deflection of the top level
+            let k3 = alpha * k_lin / (3.0 * defl.max(1e-12)).powi(2);
+            machine.cubic = Some(CubicSpring { joint, dir, k3 });
+            let hammer = Hammer::plastic();
+            let gap = o.impact_s / 6.0;
+            let hits: Vec<Hit> = (0..6)
+                .map(|h| Hit {
+                    t: gap * (h as f64 + 0.1),
+                    peak: levels[h / 2] * rng.gen_range(0.95..1.05),
+                })
+                .collect();
+            let c = impact_clean(
+                &machine,
+                &o.impact,
+                CENTRE,
+                hammer_axis,
+                &hammer,
+                &hits,
+                o.impact_s,
+            );
+            details.insert("freq_hz".into(), json!(round(mode.freq_hz, 2)));
+            details.insert("kind".into(), json!("hardening"));
+            details.insert("axis".into(), json!(AX[mode.axis()]));
+            details.insert("joint".into(), json!(joint.name()));
+            details.insert("k3_n_per_m3".into(), json!(k3));
+            details.insert("force_levels_n".into(), json!(levels));
+            let r = c.into_record(
+                &o.impact,
+                fresh,
+                vec![
+                    "case nonlinearity".into(),
+                    format!(
+                        "impact test, hammer along {}, three force levels (2 hits each at about {:?} N)",
+                        AX[hammer_axis], levels
+                    ),
+                ],
+            );
+            vec![(format!("imp_{}.csv", AX[hammer_axis]), r)]
+        }
+        Effect::TimeDelay => {
+            let k = rng.gen_range(2..=6usize);
+            details.insert("delay_s".into(), json!(k as f64 / o.impact.daq.fs));
+            details.insert("delay_samples".into(), json!(k));
+            let hammer = Hammer::plastic();
+            (0..2usize)
+                .map(|a| {
+                    let hits = standard_hits(
+                        &hammer,
+                        o.hits,
+                        o.impact_s,
+                        (150.0, 400.0),
+                        fresh + a as u64,
+                    );
+                    let c =
+                        impact_clean(&machine, &o.impact, CENTRE, a, &hammer, &hits, o.impact_s)
+                            .delayed(k);
+                    let r = c.into_record(
+                        &o.impact,
+                        fresh + a as u64,
+                        vec![
+                            "case time_delay".into(),
+                            format!("impact test, hammer along {}, {} hits", AX[a], o.hits),
+                        ],
+                    );
+                    (format!("imp_{}.csv", AX[a]), r)
+                })
+                .collect()
+        }
+        Effect::CrossCoupling => {
+            let choices = [
+                (Joint::SaddleGuide, 2usize),
+                (Joint::TableGuide, 2),
+                (Joint::RamGuide, 0),
+                (Joint::RamGuide, 1),
+            ];
+            let &(joint, axis) = choices.choose(&mut rng).unwrap_or(&choices[0]);
+            let angle = rng.gen_range(15f64..30.0).to_radians()
+                * if rng.gen_bool(0.5) { 1.0 } else { -1.0 };
+            machine.oblique = Some(Oblique {
+                joint,
+                axis,
+                angle_rad: angle,
+            });
+            let freqs: Vec<f64> = (0..600)
+                .map(|i| 30.0 * (100f64).powf(i as f64 / 599.0))
+                .collect();
+            let old = base.analytic_frf(CENTRE, &freqs);
+            let new = machine.analytic_frf(CENTRE, &freqs);
+            let peak = |f: &crate::Frf, o: usize, i: usize| {
+                f.h.iter().map(|h| h[(o, i)].norm()).fold(0.0, f64::max)
+            };
+            let mut best = (0.0, 0usize, 0usize, 0usize);
+            for (o_, i_) in [(1usize, 0usize), (2, 0), (2, 1)] {
+                let scale = (peak(&new, o_, o_) * peak(&new, i_, i_)).sqrt();
+                for (l, (a, b)) in old.h.iter().zip(&new.h).enumerate() {
+                    let gain = (b[(o_, i_)].norm() - a[(o_, i_)].norm()) / scale;
+                    if gain > best.0 {
+                        best = (gain, o_, i_, l);
+                    }
+                }
+            }
+            let (gain, o_, i_, l) = best;
+            // name the mode nearest the largest increase
+            let after = machine.modes(CENTRE);
+            let f_at = freqs[l];
+            let fm = after
+                .iter()
+                .filter(|m| !m.real)
+                .min_by(|a, b| {
+                    (a.freq_hz / f_at)
+                        .ln()
+                        .abs()
+                        .total_cmp(&(b.freq_hz / f_at).ln().abs())
+                })
+                .map(|m| m.freq_hz)
+                .unwrap_or(f_at);
+            details.insert("channel".into(), json!(format!("{}{}", AX[o_], AX[i_])));
+            details.insert(
+                "reciprocal_channel".into(),
+                json!(format!("{}{}", AX[i_], AX[o_])),
+            );
+            details.insert("freq_hz".into(), json!(round(fm, 2)));
+            details.insert("old_peak_m_per_n".into(), json!(peak(&old, o_, i_)));
+            details.insert("new_peak_m_per_n".into(), json!(peak(&new, o_, i_)));
+            details.insert("rise_rel_to_direct".into(), json!(round(gain, 4)));
+            details.insert("joint".into(), json!(joint.name()));
+            details.insert("angle_deg".into(), json!(round(angle.to_degrees(), 2)));
+            impacts(&machine, o, CENTRE, fresh, "cross_coupling")
+        }
+        Effect::Disturbance => {
+            let mills = millings(o, &mut rng);
+            let count = rng.gen_range(1..=2usize);
+            let mut fd = Vec::new();
+            while fd.len() < count {
+                let f: f64 = rng.gen_range(25.0..900.0f64);
+                let clear = mills.iter().all(|m| {
+                    let r = f / m.tooth_hz();
+                    (r - r.round()).abs() * m.tooth_hz() > 0.03 * f.max(30.0)
+                }) && fd.iter().all(|&g: &f64| (g - f).abs() > 20.0);
+                if clear {
+                    fd.push(round(f, 2));
+                }
+            }
+            fd.sort_by(f64::total_cmp);
+            let rel = rng.gen_range(0.15..0.4);
+            details.insert("freq_hz".into(), json!(fd));
+            details.insert("rms_relative".into(), json!(round(rel, 3)));
+            mill_records(&machine, o, &mills, fresh, Some((fd.clone(), rel, seed)))
+        }
+    };
+    Case {
+        effect,
+        machine,
+        records,
+        answer: json!({ "cause": effect.cause(), "details": Value::Object(details) }),
+    }
+}
+
+/// Milling records, optionally with an outside vibration `(freqs, rms share, seed)`.
+fn mill_records(
+    machine: &Machine,
+    o: &CaseOptions,
+    mills: &[Milling],
+    seed: u64,
+    disturbance: Option<(Vec<f64>, f64, u64)>,
+) -> Vec<(String, Record)> {
+    mills
+        .iter()
+        .enumerate()
+        .map(|(k, m)| {
+            let start = cut_start(m, o.milling_s);
+            let mut c: Clean = milling_clean(machine, &o.milling, m, start, o.milling_s);
+            let mut comments = milling_comments(m);
+            if let Some((fd, rel, s)) = &disturbance {
+                let mut rng = StdRng::seed_from_u64(*s + k as u64);
+                let fs = o.milling.daq.fs_sim();
+                let n = (o.milling_s * fs).round() as usize;
+                let dir = {
+                    let a: f64 = rng.gen_range(0.0..2.0 * PI);
+                    [a.cos(), a.sin(), 0.3]
+                };
+                let phases: Vec<f64> = fd.iter().map(|_| rng.gen_range(0.0..2.0 * PI)).collect();
+                let amps: Vec<f64> = fd.iter().map(|_| rng.gen_range(0.5..1.0)).collect();
+                let force: Vec<[f64; 3]> = (0..n)
+                    .map(|i| {
+                        let t = i as f64 / fs;
+                        let v: f64 = fd
+                            .iter()
+                            .zip(&phases)
+                            .zip(&amps)
+                            .map(|((f, p), a)| a * (2.0 * PI * f * t + p).sin())
+                            .sum();
+                        dir.map(|d| d * v)
+                    })
+                    .collect();
+                let track = crate::measure::feed_track(m, start, fs, n);
+                let d = run_input(
+                    machine,
+                    &o.milling,
+                    &force,
+                    &track,
+                    Input::Bed([1.0, 0.65, 0.3]),
+                );
+                let scale = rel * c.response_rms() / d.response_rms().max(f64::MIN_POSITIVE);
+                c.add_response(&d.response, scale);
+            }
+            comments.insert(
+                0,
+                format!(
+                    "case {}",
+                    if disturbance.is_some() {
+                        "disturbance"
+                    } else {
+                        "milling"
+                    }
+                ),
+            );
+            let r = c.into_record(&o.milling, seed + k as u64, comments);
+            (format!("mill_{}.csv", m.rpm as i64), r)
+        })
+        .collect()
+}
