@@ -8,7 +8,7 @@ use rand_distr::{Distribution, StandardNormal};
 /// Output rate, oversampling and anti-alias filter.
 #[derive(Clone, Debug)]
 pub struct Daq {
-    /// Output sample rate [Hz].
+    /// Output sample rate (Hz).
     pub fs: f64,
     /// Simulation steps per output sample.
     pub oversample: usize,
@@ -32,12 +32,12 @@ impl Default for Daq {
 }
 
 impl Daq {
-    /// Simulation rate [Hz].
+    /// Simulation rate (Hz).
     pub fn fs_sim(&self) -> f64 {
         self.fs * self.oversample as f64
     }
 
-    /// Simulation step [s].
+    /// Simulation step (s).
     pub fn h(&self) -> f64 {
         1.0 / self.fs_sim()
     }
@@ -97,7 +97,7 @@ pub struct Noise {
     pub white: f64,
     /// 1/f (pink) noise standard deviation / range.
     pub pink: f64,
-    /// ADC resolution [bits] over ±range (0 = no quantisation).
+    /// ADC resolution (bits) over ±range (0 = no quantisation).
     pub bits: u32,
 }
 

@@ -206,7 +206,7 @@ pub fn case(base: &Machine, effect: Effect, seed: u64) -> Case {
 
 /// Generate `effect` on `base` from `seed`.
 pub fn case_with(base: &Machine, effect: Effect, seed: u64, o: &CaseOptions) -> Case {
-    let mut rng = StdRng::seed_from_u64(seed ^ 0x5eed_1u64.wrapping_mul(effect as u64 + 1));
+    let mut rng = StdRng::seed_from_u64(seed ^ 0x0005_eed1_u64.wrapping_mul(effect as u64 + 1));
     let fresh = 10_000 + seed * 100;
     let before = base.modes(CENTRE);
     let vis = visible(&before, 0.05);
@@ -452,10 +452,13 @@ pub fn case_with(base: &Machine, effect: Effect, seed: u64, o: &CaseOptions) -> 
                 dir,
                 unit(hammer_axis).map(|v| v * levels[2]),
             );
+            // a short pulse of duration T moves a mode of ω by about ω T (2/π) of the
+            // static deflection under its peak force
+            let dyn_defl = defl * 2.0 * PI * mode.freq_hz * Hammer::plastic().pulse_s() * 2.0 / PI;
             let k_lin = base.joints[joint.index()].k[dir].max(1.0);
-            let alpha = rng.gen_range(0.3..0.8);
-            // k3 δ² = α k at three times the static deflection of the top level
-            let k3 = alpha * k_lin / (3.0 * defl.max(1e-12)).powi(2);
+            let alpha = rng.gen_range(0.5..1.5);
+            // k3 δ² = α k at the top level's dynamic deflection
+            let k3 = alpha * k_lin / dyn_defl.max(1e-12).powi(2);
             machine.cubic = Some(CubicSpring { joint, dir, k3 });
             let hammer = Hammer::plastic();
             let gap = o.impact_s / 6.0;

@@ -8,25 +8,25 @@ use rustfft::num_complex::Complex64;
 use rustfft::FftPlanner;
 use std::f64::consts::PI;
 
-/// A force history at the simulation rate: `[fx, fy, fz]` per sample [N].
+/// A force history at the simulation rate: `[fx, fy, fz]` per sample (N).
 pub type Force = Vec<[f64; 3]>;
 
 /// An impact hammer: the pulse is a half-sine whose duration follows from the hammer's
 /// mass and the tip's contact stiffness, `T = π √(m / k_tip)`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Hammer {
-    /// Hammer head mass [kg].
+    /// Hammer head mass (kg).
     pub mass: f64,
-    /// Contact stiffness of tip and surface [N/m].
+    /// Contact stiffness of tip and surface (N/m).
     pub tip_stiffness: f64,
 }
 
 /// One hit of a hammer.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Hit {
-    /// Start time [s].
+    /// Start time (s).
     pub t: f64,
-    /// Peak force [N].
+    /// Peak force (N).
     pub peak: f64,
 }
 
@@ -47,7 +47,7 @@ impl Hammer {
         }
     }
 
-    /// Pulse duration `π √(m/k)` [s].
+    /// Pulse duration `π √(m/k)` (s).
     pub fn pulse_s(&self) -> f64 {
         PI * (self.mass / self.tip_stiffness).sqrt()
     }
@@ -100,8 +100,8 @@ impl Hammer {
     }
 }
 
-/// Gaussian random force with a flat spectrum between `f_lo` and `f_hi` [Hz] (an
-/// inverse FFT of random complex lines), standard deviation `rms` [N], along `dir`.
+/// Gaussian random force with a flat spectrum between `f_lo` and `f_hi` (Hz) (an
+/// inverse FFT of random complex lines), standard deviation `rms` (N), along `dir`.
 pub fn random_force(
     fs: f64,
     n: usize,
@@ -144,8 +144,9 @@ pub enum Sweep {
     Logarithmic,
 }
 
-/// A sine sweep from `f0` to `f1` [Hz] in `duration` s of amplitude `amp` [N] along
+/// A sine sweep from `f0` to `f1` (Hz) in `duration` s of amplitude `amp` (N) along
 /// `dir`, 10 ms cosine fades at both ends, then zeros up to `n` samples.
+#[allow(clippy::too_many_arguments)]
 pub fn sweep(
     kind: Sweep,
     fs: f64,
@@ -222,15 +223,15 @@ pub fn stepped_sine(
 pub struct Milling {
     /// Number of teeth.
     pub teeth: usize,
-    /// Tool diameter [m].
+    /// Tool diameter (m).
     pub diameter: f64,
-    /// Helix angle [deg].
+    /// Helix angle (deg).
     pub helix_deg: f64,
-    /// Spindle speed [rpm].
+    /// Spindle speed (rpm).
     pub rpm: f64,
-    /// Feed per tooth [m].
+    /// Feed per tooth (m).
     pub feed_per_tooth: f64,
-    /// Axial depth of cut [m].
+    /// Axial depth of cut (m).
     pub depth: f64,
     /// Radial immersion `a_e / D` (0…1].
     pub immersion: f64,
@@ -238,13 +239,13 @@ pub struct Milling {
     pub down: bool,
     /// Feed along y instead of x.
     pub feed_y: bool,
-    /// Cutting coefficients `K_tc, K_rc, K_ac` [N/m²].
+    /// Cutting coefficients `K_tc, K_rc, K_ac` (N/m²).
     pub kc: [f64; 3],
-    /// Edge coefficients `K_te, K_re, K_ae` [N/m].
+    /// Edge coefficients `K_te, K_re, K_ae` (N/m).
     pub ke: [f64; 3],
-    /// Radial runout of the tool axis [m].
+    /// Radial runout of the tool axis (m).
     pub runout: f64,
-    /// Angle of the runout relative to tooth 0 [rad].
+    /// Angle of the runout relative to tooth 0 (rad).
     pub runout_angle: f64,
     /// Per-tooth factor on the coefficients (tooth-to-tooth variation), one per tooth.
     pub tooth_factor: Vec<f64>,
@@ -276,17 +277,17 @@ impl Milling {
         }
     }
 
-    /// Tooth passing frequency [Hz].
+    /// Tooth passing frequency (Hz).
     pub fn tooth_hz(&self) -> f64 {
         self.rpm / 60.0 * self.teeth as f64
     }
 
-    /// Feed speed [m/s].
+    /// Feed speed (m/s).
     pub fn feed_speed(&self) -> f64 {
         self.feed_per_tooth * self.tooth_hz()
     }
 
-    /// Entry and exit angles [rad].
+    /// Entry and exit angles (rad).
     pub fn engagement(&self) -> (f64, f64) {
         let a = (1.0 - 2.0 * self.immersion.clamp(1e-6, 1.0)).acos();
         if self.down {
@@ -296,7 +297,7 @@ impl Milling {
         }
     }
 
-    /// Force on the tool [N] at `n` samples of rate `fs` from time `t0`.
+    /// Force on the tool (N) at `n` samples of rate `fs` from time `t0`.
     pub fn force(&self, fs: f64, n: usize, t0: f64) -> Force {
         let (st, ex) = self.engagement();
         let r = self.diameter / 2.0;

@@ -12,7 +12,7 @@ pub const AXES: [char; 3] = ['x', 'y', 'z'];
 pub struct Frf {
     /// The pose.
     pub pose: Pose,
-    /// Frequencies [Hz].
+    /// Frequencies (Hz).
     pub freqs_hz: Vec<f64>,
     /// 3×3 receptance per frequency, `(out, in)`.
     pub h: Vec<Matrix3<Complex64>>,
@@ -50,7 +50,7 @@ impl Machine {
         self.analytic_frf_loaded(pose, freqs_hz, 0.0)
     }
 
-    /// The exact receptance with a point mass `tip_mass` [kg] at the tool tip (what an
+    /// The exact receptance with a point mass `tip_mass` (kg) at the tool tip (what an
     /// accelerometer of that mass sees).
     pub fn analytic_frf_loaded(&self, pose: Pose, freqs_hz: &[f64], tip_mass: f64) -> Frf {
         let asm = self.assemble(pose, tip_mass);

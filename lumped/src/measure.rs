@@ -17,7 +17,7 @@ pub struct Setup {
     pub daq: Daq,
     /// Accelerometers or displacement sensors.
     pub response: Response,
-    /// Accelerometer mass at the tool tip [kg] (mass loading; 0 for non-contact sensors).
+    /// Accelerometer mass at the tool tip (kg) (mass loading; 0 for non-contact sensors).
     pub tip_mass: f64,
     /// Noise of the force channels.
     pub force_noise: Noise,
@@ -75,9 +75,9 @@ impl Setup {
 /// Decimated, noise-free signals of one test.
 #[derive(Clone, Debug)]
 pub struct Clean {
-    /// Output rate [Hz].
+    /// Output rate (Hz).
     pub fs: f64,
-    /// Force [N].
+    /// Force (N).
     pub force: [Vec<f64>; 3],
     /// Response (acceleration or displacement).
     pub response: [Vec<f64>; 3],

@@ -9,9 +9,9 @@ use num_complex::Complex64;
 /// A mode of the damped structure (a pole with positive imaginary part, or a real pole).
 #[derive(Clone, Debug)]
 pub struct Mode {
-    /// The pole `λ` [rad/s].
+    /// The pole `λ` (rad/s).
     pub lambda: Complex64,
-    /// Natural frequency `|λ| / 2π` [Hz].
+    /// Natural frequency `|λ| / 2π` (Hz).
     pub freq_hz: f64,
     /// Damping ratio `−Re λ / |λ|`.
     pub zeta: f64,
@@ -39,7 +39,7 @@ impl Mode {
         (0..3).max_by(|&a, &b| p[a].total_cmp(&p[b])).unwrap_or(0)
     }
 
-    /// Largest direct-channel peak height [m/N].
+    /// Largest direct-channel peak height (m/N).
     pub fn max_peak(&self) -> f64 {
         self.peak().into_iter().fold(0.0, f64::max)
     }

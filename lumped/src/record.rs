@@ -10,9 +10,9 @@ use std::path::Path;
 /// What the response channels hold.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Response {
-    /// Relative acceleration tool − workpiece `ax, ay, az` [m/s²].
+    /// Relative acceleration tool − workpiece `ax, ay, az` (m/s²).
     Acceleration,
-    /// Relative displacement `dx, dy, dz` [m].
+    /// Relative displacement `dx, dy, dz` (m).
     Displacement,
 }
 
@@ -21,9 +21,9 @@ pub enum Response {
 pub struct Record {
     /// Metadata written as `#` comment lines (without the `# `).
     pub comments: Vec<String>,
-    /// Sample rate [Hz].
+    /// Sample rate (Hz).
     pub fs: f64,
-    /// Force `fx, fy, fz` [N].
+    /// Force `fx, fy, fz` (N).
     pub force: [Vec<f64>; 3],
     /// Response (see [`Record::kind`]).
     pub response: [Vec<f64>; 3],
@@ -101,7 +101,7 @@ pub fn write_atomic(path: &Path, text: &str) -> Result<(), Error> {
 }
 
 impl Frf {
-    /// FRF CSV of SPEC section 3: first line `# analytic receptance [m/N] at pose=X,Y,Z`
+    /// FRF CSV of SPEC section 3: first line `# analytic receptance (m/N) at pose=X,Y,Z`
     /// (plus `extra` comment lines), header `f_hz,xx_re,xx_im,xy_re,...`, all 9 channels.
     pub fn to_csv(&self, extra: &[String]) -> String {
         let mut s = String::new();

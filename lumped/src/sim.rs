@@ -23,13 +23,13 @@ pub enum Hold {
 /// Options of a simulation.
 #[derive(Clone, Debug)]
 pub struct SimOptions {
-    /// Time step [s].
+    /// Time step (s).
     pub h: f64,
     /// Force hold.
     pub hold: Hold,
-    /// Point mass at the tool tip [kg] (accelerometer).
+    /// Point mass at the tool tip (kg) (accelerometer).
     pub tip_mass: f64,
-    /// Re-discretise when any axis has moved by more than this [m].
+    /// Re-discretise when any axis has moved by more than this (m).
     pub repose_tol: f64,
 }
 
@@ -48,9 +48,9 @@ impl SimOptions {
 /// TCP motion (tool − workpiece) at the simulation rate.
 #[derive(Clone, Debug, Default)]
 pub struct Motion {
-    /// Relative displacement [m].
+    /// Relative displacement (m).
     pub disp: Vec<[f64; 3]>,
-    /// Relative acceleration [m/s²].
+    /// Relative acceleration (m/s²).
     pub acc: Vec<[f64; 3]>,
 }
 
@@ -115,7 +115,7 @@ fn moved(a: &Pose, b: &Pose, tol: f64) -> bool {
 pub enum Input {
     /// Between tool and workpiece at the TCP (`F` on the tool, `−F` on the workpiece).
     Tcp,
-    /// On the bed at a world point [m] (a vibration coming in through the floor).
+    /// On the bed at a world point (m) (a vibration coming in through the floor).
     Bed([f64; 3]),
 }
 
@@ -299,8 +299,8 @@ pub fn simulate_nonlinear(
     out
 }
 
-/// Static deflection of a joint under a TCP force pair `force` [N]: the largest
-/// `|δ|` along principal direction `dir` over the joint's contacts [m]. Used to scale
+/// Static deflection of a joint under a TCP force pair `force` (N): the largest
+/// `|δ|` along principal direction `dir` over the joint's contacts (m). Used to scale
 /// a cubic spring to a force level.
 pub fn static_joint_deflection(
     asm: &Assembly,

@@ -147,13 +147,13 @@ impl Joint {
 /// Mass and box dimensions of a body (its inertia is that of a solid box).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct BodyParams {
-    /// Mass [kg].
+    /// Mass (kg).
     pub mass: f64,
-    /// Edge lengths along x, y, z [m].
+    /// Edge lengths along x, y, z (m).
     pub size: [f64; 3],
 }
 
-/// Stiffness [N/m] and dashpot [N s/m] of ONE contact point of a joint, along the joint's
+/// Stiffness (N/m) and dashpot (N s/m) of ONE contact point of a joint, along the joint's
 /// principal directions (the world axes unless the joint is made oblique). For a ball
 /// screw `k` is the bearing-and-nut stiffness in series with the shaft (see
 /// [`Machine::screw_ea`]).
@@ -173,7 +173,7 @@ pub struct Oblique {
     pub joint: Joint,
     /// World axis of the rotation (0 = x, 1 = y, 2 = z).
     pub axis: usize,
-    /// Angle [rad].
+    /// Angle (rad).
     pub angle_rad: f64,
 }
 
@@ -193,11 +193,11 @@ pub struct PoseGradient {
 /// three translational degrees of freedom.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ExtraMass {
-    /// Mass [kg].
+    /// Mass (kg).
     pub mass: f64,
-    /// Spring stiffness along x, y, z [N/m].
+    /// Spring stiffness along x, y, z (N/m).
     pub k: [f64; 3],
-    /// Dashpot coefficients along x, y, z [N s/m].
+    /// Dashpot coefficients along x, y, z (N s/m).
     pub c: [f64; 3],
 }
 
@@ -209,7 +209,7 @@ pub struct CubicSpring {
     pub joint: Joint,
     /// Principal direction (0, 1, 2).
     pub dir: usize,
-    /// Cubic coefficient [N/m³].
+    /// Cubic coefficient (N/m³).
     pub k3: f64,
 }
 
@@ -221,9 +221,9 @@ pub struct Friction {
     pub joint: Joint,
     /// Principal direction (0, 1, 2).
     pub dir: usize,
-    /// Friction force per contact [N].
+    /// Friction force per contact (N).
     pub f_c: f64,
-    /// Velocity of the smooth transition [m/s].
+    /// Velocity of the smooth transition (m/s).
     pub v0: f64,
 }
 
@@ -251,7 +251,7 @@ pub struct Machine {
     pub bodies: Vec<BodyParams>,
     /// Per [`Joint::ALL`].
     pub joints: Vec<JointParams>,
-    /// Axial rigidity `E·A` of the x, y, z ball screws [N] (fixed–fixed mounting).
+    /// Axial rigidity `E·A` of the x, y, z ball screws (N) (fixed–fixed mounting).
     pub screw_ea: [f64; 3],
     /// Geometry.
     pub geometry: Geometry,
@@ -267,7 +267,7 @@ pub struct Machine {
     pub friction: Option<Friction>,
 }
 
-/// Lower and upper limits of the workspace per axis [m].
+/// Lower and upper limits of the workspace per axis (m).
 pub const WORKSPACE: [[f64; 2]; 3] = [[0.0, 0.8], [0.0, 0.6], [0.0, 0.3]];
 
 /// The workspace centre.
@@ -282,7 +282,7 @@ pub struct Contact {
     pub a: Option<usize>,
     /// Body on the other side.
     pub b: usize,
-    /// World position [m].
+    /// World position (m).
     pub point: Vector3<f64>,
     /// Principal directions (columns) of the contact.
     pub frame: Matrix3<f64>,
@@ -451,7 +451,7 @@ impl Machine {
     pub fn random(seed: u64) -> Self {
         let mut rng = StdRng::seed_from_u64(seed);
         let mut m = Self::nominal();
-        let mut logu = |lo: f64, hi: f64| (rng.gen_range(lo.ln()..hi.ln()) as f64).exp();
+        let mut logu = |lo: f64, hi: f64| rng.gen_range(lo.ln()..hi.ln()).exp();
         for b in &mut m.bodies {
             b.mass *= logu(0.85, 1.15);
         }
@@ -678,7 +678,7 @@ impl Machine {
         }
     }
 
-    /// `M`, `C`, `K` and the TCP map at `pose`, with a point mass `tip_mass` [kg] at the
+    /// `M`, `C`, `K` and the TCP map at `pose`, with a point mass `tip_mass` (kg) at the
     /// tool tip (an accelerometer; 0 for none).
     pub fn assemble(&self, pose: Pose, tip_mass: f64) -> Assembly {
         let layout = self.layout(pose);
