@@ -165,10 +165,9 @@ pub fn pink_noise(n: usize, rng: &mut StdRng) -> Vec<f64> {
     out
 }
 
-/// Add noise and quantise one channel in place (range from [`auto_range`] of the clean
-/// signal); returns the range used.
-pub fn corrupt(x: &mut [f64], noise: &Noise, seed: u64) -> f64 {
-    let range = auto_range(x);
+/// Add noise and quantise one channel in place with the input range `range` (e.g.
+/// [`auto_range`] of the clean signals of that sensor type).
+pub fn corrupt(x: &mut [f64], range: f64, noise: &Noise, seed: u64) {
     let mut rng = StdRng::seed_from_u64(seed);
     if noise.white > 0.0 || noise.pink > 0.0 {
         let pink = pink_noise(x.len(), &mut rng);
@@ -183,5 +182,4 @@ pub fn corrupt(x: &mut [f64], noise: &Noise, seed: u64) -> f64 {
             *v = ((*v / lsb).round() * lsb).clamp(-range, range);
         }
     }
-    range
 }

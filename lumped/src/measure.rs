@@ -2,7 +2,7 @@
 //! [`Daq`], corrupted by sensor noise. [`run`] gives the clean decimated signals (so
 //! hidden effects can act on them), [`Clean::into_record`] adds noise and metadata.
 
-use crate::daq::{corrupt, Daq, Noise};
+use crate::daq::{auto_range, corrupt, Daq, Noise};
 use crate::excitation::{Force, Hammer, Hit, Milling};
 use crate::record::{Record, Response};
 use crate::sim::{simulate_input, simulate_nonlinear, Hold, Input, Motion, SimOptions};
@@ -169,23 +169,19 @@ impl Clean {
     /// Add noise and quantisation (channel `d` seeded from `seed`) and the metadata.
     pub fn into_record(mut self, setup: &Setup, seed: u64, comments: Vec<String>) -> Record {
         let mut comments = comments;
+        // one input range per sensor type (the largest channel sets it), as a tester would
+        let all = |ch: &[Vec<f64>; 3]| ch.iter().flatten().copied().collect::<Vec<f64>>();
+        let rf = auto_range(&all(&self.force));
+        let rr = auto_range(&all(&self.response));
         for d in 0..3 {
-            let rf = corrupt(
-                &mut self.force[d],
-                &setup.force_noise,
-                seed.wrapping_mul(16) + d as u64,
-            );
-            let rr = corrupt(
-                &mut self.response[d],
-                &setup.response_noise,
-                seed.wrapping_mul(16) + 8 + d as u64,
-            );
-            comments.push(format!(
-                "adc {}: force range {rf} N, response range {rr}, {} bits",
-                ['x', 'y', 'z'][d],
-                setup.response_noise.bits
-            ));
+            let s = seed.wrapping_mul(16) + d as u64;
+            corrupt(&mut self.force[d], rf, &setup.force_noise, s);
+            corrupt(&mut self.response[d], rr, &setup.response_noise, s + 8);
         }
+        comments.push(format!(
+            "adc: force range {rf} N, response range {rr}, {} bits",
+            setup.response_noise.bits
+        ));
         let sensor = match setup.response {
             Response::Acceleration => format!(
                 "sensor=accelerometer (relative acceleration tool - workpiece), mass {} kg at the tool tip",
