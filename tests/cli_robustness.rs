@@ -220,7 +220,6 @@ fn cells() -> Vec<Cell> {
             kind: Kind::Random,
             noise: 0.05,
             seed: 22,
-            known_failure: true,
             ..NOMINAL
         },
         Cell {
@@ -228,7 +227,6 @@ fn cells() -> Vec<Cell> {
             kind: Kind::Random,
             zeta: 0.08,
             seed: 23,
-            known_failure: true,
             ..NOMINAL
         },
         Cell {
@@ -276,7 +274,6 @@ fn cells() -> Vec<Cell> {
             zeta: 0.08,
             noise: 0.05,
             seed: 19,
-            known_failure: true,
             ..NOMINAL
         },
         Cell {

@@ -538,7 +538,8 @@ pub fn identify_frfs(
                 pose: m.pose,
                 order: OrderInfo {
                     modes: model.modes.len(),
-                    automatic: res.automatic_order,
+                    // an order raised by the alternatives is still the automatic choice
+                    automatic: res.automatic_order || opts.fit.n_modes.is_none(),
                     stable_freqs_hz: res.diagram.stable_freqs_hz(),
                 },
                 frf: m.frf,
@@ -812,6 +813,9 @@ fn fit_pose(
     pose: [f64; 3],
 ) -> Result<(crate::rational_fit::FitResult, PosePlan)> {
     let name = |o: &FitOptions| -> String {
+        if let (Some(n), None) = (o.n_modes, options.n_modes) {
+            return format!("{n} modes (order raised)");
+        }
         format!(
             "{} weighting, diagram orders up to {}",
             match o.weighting {
@@ -878,8 +882,26 @@ fn fit_pose(
         o
     };
     let mut tried_deep = false;
+    let mut tried_order = false;
     let mut i = 0;
-    while i < candidates.len() || (!tried_deep && options.n_modes.is_none()) {
+    while i < candidates.len() || (!tried_order && options.n_modes.is_none()) {
+        if i >= candidates.len() && tried_deep {
+            // last: one and two pairs more than the best fit's automatic order (a mode
+            // merged with its neighbour, or one whose peak spans two lines, leaves a misfit
+            // the order rule's global residual did not weigh)
+            tried_order = true;
+            if best_score.0 >= TRY_ALTERNATIVES_BELOW {
+                break;
+            }
+            let n = best.model.modes.len();
+            for extra in [1, 2] {
+                candidates.push(FitOptions {
+                    n_modes: Some(n + extra),
+                    ..best_options.clone()
+                });
+            }
+            continue;
+        }
         if i >= candidates.len() {
             // the deeper diagram only for a poor fit whose modes the diagram did not account
             // for (it found none, or the order rule had to add pairs it did not see): a
@@ -889,7 +911,7 @@ fn fit_pose(
             if best_score.1 >= QUALITY_WARNING_BELOW
                 || (physical > 0 && physical >= best.model.modes.len())
             {
-                break;
+                continue;
             }
             candidates.push(deep(options));
             if best_options != *options {
@@ -903,7 +925,13 @@ fn fit_pose(
             Ok(alt) => {
                 let s = score(&alt);
 
-                let better = s.0 > best_score.0 + 0.2;
+                // a forced higher order must earn its modes: one point of mean fit
+                let gain = if cand.n_modes.is_some() && options.n_modes.is_none() {
+                    ORDER_ALTERNATIVE_GAIN
+                } else {
+                    0.2
+                };
+                let better = s.0 > best_score.0 + gain;
                 plan.alternatives.push(format!(
                     "{}: {what} {:.2} %, worst channel {:.2} %, {} modes{}",
                     name(cand),
@@ -935,6 +963,10 @@ fn fit_pose(
     }
     Ok((best, plan))
 }
+
+/// Points of mean fit a forced higher order (the automatic order plus one or two pairs)
+/// must gain over the best automatic fit to be kept.
+const ORDER_ALTERNATIVE_GAIN: f64 = 1.0;
 
 /// Two tracked modes of one pose count as coincident when their natural frequencies
 /// differ by less than this fraction of the smaller half-power half-width `ζω`.

@@ -545,11 +545,7 @@ mod tests {
             .collect();
         let frf = Frf {
             freqs_hz: f.clone(),
-            channels: vec![
-                ch(Axis::X, direct),
-                ch(Axis::Z, noise),
-                ch(Axis::Y, cross),
-            ],
+            channels: vec![ch(Axis::X, direct), ch(Axis::Z, noise), ch(Axis::Y, cross)],
         };
         let facts = EstimateFacts {
             excitation_band_hz: Some((1.0, 900.0)),
