@@ -254,3 +254,79 @@ fn real_impact_defaults_choose_a_trusted_band_and_many_modes() {
         "accelerance {acc:.2} %, receptance {rec:.2} %"
     );
 }
+
+/// The four hidden-effect cases of the tryout set, diagnosed against the twin the
+/// defaults make from its campaign: cause and numbers as in `diagnose/answers.json`
+/// (frequencies within 2 %, the axis and kind named there).
+#[test]
+fn tryout_diagnosis_names_all_four_cases() {
+    let dir = tmp();
+    let mut files: Vec<PathBuf> = std::fs::read_dir(tryout("campaign"))
+        .expect("campaign folder")
+        .map(|e| e.expect("entry").path())
+        .collect();
+    files.sort();
+    let twin_path = dir.path().join("twin.json");
+    identify(&files, &twin_path);
+    let answers: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(tryout("diagnose/answers.json")).expect("answers"),
+    )
+    .expect("answers json");
+    let cases = answers.as_object().expect("answers object");
+    assert_eq!(cases.len(), 4);
+    let close = |a: f64, b: f64| (a / b - 1.0).abs() <= 0.02;
+    let mut wrong = Vec::new();
+    for (case, truth) in cases {
+        let mut data: Vec<PathBuf> = std::fs::read_dir(tryout(&format!("diagnose/{case}")))
+            .expect("case folder")
+            .map(|e| e.expect("entry").path())
+            .collect();
+        data.sort();
+        let out = dir.path().join(case);
+        let mut args = vec!["diagnose", "-q", "--twin", s(&twin_path)];
+        args.extend(data.iter().map(|p| s(p)));
+        args.extend(["--out", s(&out)]);
+        let o = mtwin(&args);
+        assert!(o.status.success(), "{case}: {}", stderr(&o));
+        let d: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(out.join("diagnosis.json")).expect("diagnosis.json"),
+        )
+        .expect("diagnosis json");
+        let (cause, want) = (
+            d["cause"].as_str().unwrap_or(""),
+            truth["cause"].as_str().unwrap_or("?"),
+        );
+        let det = &d["details"];
+        let tdet = &truth["details"];
+        let numbers_right = match want {
+            "none" => true,
+            "disturbance" => {
+                let found: Vec<f64> = det["freq_hz"]
+                    .as_array()
+                    .map(|v| v.iter().filter_map(serde_json::Value::as_f64).collect())
+                    .unwrap_or_default();
+                let t: Vec<f64> = tdet["freq_hz"]
+                    .as_array()
+                    .map(|v| v.iter().filter_map(serde_json::Value::as_f64).collect())
+                    .unwrap_or_default();
+                found.len() == t.len() && t.iter().all(|f| found.iter().any(|g| close(*g, *f)))
+            }
+            _ => {
+                let f = det["freq_hz"].as_f64().unwrap_or(f64::NAN);
+                let tf = tdet["freq_hz"].as_f64().unwrap_or(f64::NAN);
+                close(f, tf)
+                    && tdet.get("axis").is_none_or(|a| det["axis"] == *a)
+                    && tdet.get("kind").is_none_or(|k| det["kind"] == *k)
+            }
+        };
+        eprintln!(
+            "{case}: {cause} (want {want}), held-out fit {:.2} -> {:.2} %, details {det}",
+            d["fit_before_pct"].as_f64().unwrap_or(f64::NAN),
+            d["fit_after_pct"].as_f64().unwrap_or(f64::NAN)
+        );
+        if cause != want || !numbers_right {
+            wrong.push(format!("{case}: {cause} {det} (want {want} {tdet})"));
+        }
+    }
+    assert!(wrong.is_empty(), "{wrong:#?}");
+}

@@ -198,14 +198,21 @@ pub fn is_impact(ts: &TimeSeries) -> bool {
 fn hit_starts(ts: &TimeSeries) -> Vec<usize> {
     let f = force_mag(ts);
     let peak = f.iter().copied().fold(0.0, f64::max);
+    // hits at every force level of a record (a test at three levels has light hits
+    // below a tenth of the hard ones): 5 % of the largest peak, and well above the
+    // force's noise (its median magnitude)
+    let mut sorted = f.clone();
+    sorted.sort_by(f64::total_cmp);
+    let noise = sorted.get(sorted.len() / 2).copied().unwrap_or(0.0);
+    let threshold = (0.05 * peak).max(20.0 * noise);
     let gap = (0.05 / ts.dt) as usize; // 50 ms
     let mut hits = Vec::new();
     let mut last: Option<usize> = None;
     for (i, v) in f.iter().enumerate() {
-        if *v > 0.2 * peak && last.is_none_or(|l| i > l + gap) {
+        if *v > threshold && last.is_none_or(|l| i > l + gap) {
             hits.push(i);
         }
-        if *v > 0.2 * peak {
+        if *v > threshold {
             last = Some(i);
         }
     }
@@ -220,7 +227,24 @@ pub fn split(ts: &TimeSeries, fraction: f64) -> Split {
     if is_impact(ts) {
         let hits = hit_starts(ts);
         if hits.len() >= 2 {
-            let keep = ((hits.len() as f64) * (1.0 - fraction)).round().max(1.0) as usize;
+            let mut keep = ((hits.len() as f64) * (1.0 - fraction)).round().max(1.0) as usize;
+            // hits at several force levels (a nonlinearity test: light, then hard): the
+            // building part must hold every level, so only the last hit is held out
+            let f = force_mag(ts);
+            let peaks: Vec<f64> = hits
+                .iter()
+                .enumerate()
+                .map(|(h, &a)| {
+                    let b = hits.get(h + 1).copied().unwrap_or(f.len());
+                    f[a..b].iter().fold(0.0f64, |m, v| m.max(*v))
+                })
+                .collect();
+            let (lo, hi) = peaks
+                .iter()
+                .fold((f64::INFINITY, 0.0f64), |(a, b), p| (a.min(*p), b.max(*p)));
+            if hits.len() >= 4 && lo > 0.0 && hi >= 2.0 * lo {
+                keep = hits.len() - 1;
+            }
             let keep = keep.min(hits.len() - 1);
             at = hits[keep].saturating_sub((0.002 / ts.dt) as usize);
         }
@@ -478,6 +502,35 @@ pub fn points(ev: &Evidence, band: (f64, f64), min_coh: f64) -> Vec<Points> {
         .collect()
 }
 
+/// The force axes the twin knows: inputs of the channels it models or its campaign
+/// measured. `None` for a twin without plans (every channel counts).
+fn known_inputs(twin: &Twin) -> Option<Vec<Axis>> {
+    if twin.poses.iter().all(|p| p.plan.is_none()) {
+        return None;
+    }
+    let mut known: Vec<Axis> = twin.channels.iter().map(|c| c.input).collect();
+    for p in &twin.poses {
+        for d in p.plan.iter().flat_map(|pl| &pl.channels) {
+            known.push(d.channel.input);
+        }
+    }
+    known.sort_by_key(|a| a.index());
+    known.dedup();
+    Some(known)
+}
+
+/// [`points`] of the channels whose input the twin knows ([`known_inputs`]): a channel
+/// driven by a force the campaign never applied (the z force in milling, when only x
+/// and y were hit) is no evidence against the twin, it says nothing there. A response
+/// in another axis to a known force stays evidence (a cross coupling the twin lacks).
+pub fn twin_points(ev: &Evidence, twin: &Twin, band: (f64, f64), min_coh: f64) -> Vec<Points> {
+    let mut pts = points(ev, band, min_coh);
+    if let Some(known) = known_inputs(twin) {
+        pts.retain(|p| known.contains(&p.channel.input));
+    }
+    pts
+}
+
 /// Adds the twin's own uncertainty to the standard errors of `pts`: at each line, the
 /// local RMS misfit (±2.5 % of frequency, at least the nearest line) of the twin's
 /// measured pose nearest to `pose` against the FRF it was identified from. New data more
@@ -726,7 +779,7 @@ fn cand_pose_dependence(
     for g in &groups {
         let recs: Vec<TimeSeries> = g.records.iter().map(|&i| parts[i].clone()).collect();
         let ev = evidence(&recs).ok()?;
-        let pts = points(&ev, band, min_coh);
+        let pts = twin_points(&ev, twin, band, min_coh);
         if pts.is_empty() {
             return None;
         }
@@ -867,7 +920,31 @@ fn cand_pose_dependence(
 
 /// The records split by force level (peak force below / above the geometric mean of the
 /// smallest and largest peak) when the levels differ clearly (ratio ≥ 2), else nothing.
+/// The units a force level is judged on: each hit of an impact record (from its
+/// pre-trigger to the next hit's; a record may hold hits at several levels), a
+/// continuous record whole.
+fn level_units(parts: &[TimeSeries]) -> Vec<TimeSeries> {
+    let mut out = Vec::new();
+    for ts in parts {
+        if !is_impact(ts) {
+            out.push(ts.clone());
+            continue;
+        }
+        let hits = hit_starts(ts);
+        let pre = (0.002 / ts.dt) as usize;
+        for (h, &s) in hits.iter().enumerate() {
+            let a = s.saturating_sub(pre);
+            let b = hits.get(h + 1).map_or(ts.len(), |&n| n.saturating_sub(pre));
+            if b > a + 16 {
+                out.push(slice(ts, a, b));
+            }
+        }
+    }
+    out
+}
+
 fn force_levels(parts: &[TimeSeries]) -> Vec<Vec<TimeSeries>> {
+    let parts = &level_units(parts);
     let peaks: Vec<f64> = parts
         .iter()
         .map(|t| force_mag(t).iter().fold(0.0f64, |a, v| a.max(*v)))
@@ -906,6 +983,7 @@ fn cand_nonlinearity(
     min_coh: f64,
     pose: [f64; 3],
 ) -> Option<Cand> {
+    let parts = &level_units(parts);
     let peak = |ts: &TimeSeries| force_mag(ts).iter().fold(0.0f64, |a, v| a.max(*v));
     let peaks: Vec<f64> = parts.iter().map(peak).collect();
     let (lo, hi) = peaks
@@ -929,7 +1007,7 @@ fn cand_nonlinearity(
     let m0 = evl.model_at(pose).clone();
     let pts_of = |recs: &[TimeSeries]| -> Option<Vec<Points>> {
         let e = evidence(recs).ok()?;
-        let p = points(&e, band, min_coh);
+        let p = twin_points(&e, twin, band, min_coh);
         (!p.is_empty()).then_some(p)
     };
     let (pl, ph) = (pts_of(&low_recs)?, pts_of(&high_recs)?);
@@ -941,6 +1019,17 @@ fn cand_nonlinearity(
         };
         let df = b.model.modes[k].wn / a.model.modes[k].wn - 1.0;
         let dz = b.model.modes[k].zeta / a.model.modes[k].zeta - 1.0;
+        // a retune that jumps to another resonance or smears a mode out (a weak mode of
+        // the other axis, a close pair) is no move of this mode
+        let moved_off = |m: &ModalModel| {
+            let r = m.modes[k].wn / m0.modes[k].wn;
+            let z = m.modes[k].zeta / m0.modes[k].zeta;
+            !(0.8..=1.25).contains(&r) || !(0.25..=4.0).contains(&z)
+        };
+        if moved_off(&a.model) || moved_off(&b.model) {
+            trace(|| format!("nonlinearity: mode {k}: retune left the mode (not a move)"));
+            continue;
+        }
         moves.push((k, df, dz, a.model, b.model));
     }
     for (k, df, dz, _, _) in &moves {
@@ -1285,6 +1374,164 @@ fn cand_cross_coupling(twin: &Twin, model: &ModalModel, pts: &[Points]) -> Optio
 }
 
 /// Narrowband peaks of the building part's residual that the forces do not explain.
+/// A residual line counts as a disturbance only when the response power at it that is
+/// not coherent with the forces stands this many times above the median of its
+/// neighbourhood (±24 lines): a tone from outside. Broadband noise scatters such a ratio
+/// by a factor of about 3 over 8 averages.
+const DISTURBANCE_MIN_STRENGTH: f64 = 20.0;
+
+/// Incoherent-power ratio above which a disturbance needs no minimum held-out gain.
+const DISTURBANCE_PROVEN_STRENGTH: f64 = 1000.0;
+
+/// Response power not coherent with the measured forces, per output and Welch line.
+struct IncoherentLines {
+    df: f64,
+    freqs: Vec<f64>,
+    per_output: Vec<(Axis, Vec<f64>)>,
+    /// Force PSD summed over the inputs.
+    force_psd: Vec<f64>,
+}
+
+impl IncoherentLines {
+    /// Whether line `l` (or a neighbour) is a line of the force itself (a periodic force:
+    /// tooth passing, spindle): its summed PSD 3× above the median of lines 4..24 away.
+    fn force_line(&self, l: usize) -> bool {
+        let p = &self.force_psd;
+        let mut side: Vec<f64> = (4..=24)
+            .flat_map(|d| [l.checked_sub(d), Some(l + d)])
+            .flatten()
+            .filter(|&j| j < p.len())
+            .map(|j| p[j])
+            .collect();
+        if side.is_empty() {
+            return false;
+        }
+        side.sort_by(f64::total_cmp);
+        let med = side[side.len() / 2];
+        p[l.saturating_sub(1)..(l + 2).min(p.len())]
+            .iter()
+            .any(|v| *v > 3.0 * med)
+    }
+
+    /// Index of the line nearest to `f`.
+    fn line_of(&self, f: f64) -> usize {
+        let k = self.freqs.partition_point(|x| *x < f);
+        if k > 0 && (k == self.freqs.len() || f - self.freqs[k - 1] < self.freqs[k] - f) {
+            k - 1
+        } else {
+            k
+        }
+    }
+
+    /// Incoherent power at the line of `f` (the largest of it and its two neighbours: a
+    /// tone between lines) over the median of the lines 4..24 away on both sides.
+    fn strength(&self, a: Axis, f: f64) -> f64 {
+        let Some((_, p)) = self.per_output.iter().find(|(x, _)| *x == a) else {
+            return f64::INFINITY;
+        };
+        let l = self.line_of(f);
+        if l >= p.len() {
+            return 0.0;
+        }
+        let peak = p[l.saturating_sub(1)..(l + 2).min(p.len())]
+            .iter()
+            .fold(0.0f64, |m, v| m.max(*v));
+        let mut side: Vec<f64> = (4..=24)
+            .flat_map(|d| [l.checked_sub(d), Some(l + d)])
+            .flatten()
+            .filter(|&j| j < p.len())
+            .map(|j| p[j])
+            .collect();
+        if side.is_empty() {
+            return 0.0;
+        }
+        side.sort_by(f64::total_cmp);
+        peak / side[side.len() / 2].max(1e-300)
+    }
+}
+
+impl IncoherentLines {
+    /// Frequencies of lines whose incoherent power proves a tone from outside
+    /// ([`DISTURBANCE_PROVEN_STRENGTH`]), any output.
+    fn tones(&self) -> Vec<f64> {
+        let mut out: Vec<f64> = Vec::new();
+        for (a, p) in &self.per_output {
+            for l in 1..p.len().saturating_sub(1) {
+                if p[l] < p[l - 1] || p[l] < p[l + 1] {
+                    continue;
+                }
+                let f = self.freqs[l];
+                // a tone is one line wide (Hann: ±2 lines) and takes the coherence with
+                // it; a resonance of a slightly time-varying machine is wider and stays
+                // coherent
+                let narrow = [l.checked_sub(4), Some(l + 4)]
+                    .into_iter()
+                    .flatten()
+                    .filter(|&j| j < p.len())
+                    .all(|j| p[j] < 0.01 * p[l]);
+                if narrow
+                    && !self.force_line(l)
+                    && self.strength(*a, f) >= DISTURBANCE_PROVEN_STRENGTH
+                    && !out.iter().any(|g| (g - f).abs() < 3.0 * self.df)
+                {
+                    out.push(f);
+                }
+            }
+        }
+        out
+    }
+
+    /// Removes the FRF points within 3 Welch lines of a proven tone: there the response
+    /// is not the force's, and the FRF estimate's leakage around the tone is no evidence
+    /// against the twin.
+    fn drop_tone_points(&self, pts: &mut Vec<Points>, tones: &[f64]) {
+        if tones.is_empty() {
+            return;
+        }
+        let w = 3.0 * self.df;
+        for p in pts.iter_mut() {
+            let keep: Vec<bool> = p
+                .freqs_hz
+                .iter()
+                .map(|f| tones.iter().all(|t| (t - f).abs() > w))
+                .collect();
+            let mut k = keep.iter();
+            p.freqs_hz.retain(|_| *k.next().unwrap_or(&true));
+            let mut k = keep.iter();
+            p.h.retain(|_| *k.next().unwrap_or(&true));
+            let mut k = keep.iter();
+            p.sigma.retain(|_| *k.next().unwrap_or(&true));
+        }
+        pts.retain(|p| !p.h.is_empty());
+    }
+}
+
+/// [`IncoherentLines`] of the building parts (lines of about 1 Hz, at least 8 averages);
+/// `None` when the records cannot be estimated (no force, too short).
+fn incoherent_lines(parts: &[TimeSeries]) -> Option<IncoherentLines> {
+    let fs = parts.first()?.fs();
+    let total: usize = parts.iter().map(TimeSeries::len).sum();
+    let mut nfft = (fs as usize).next_power_of_two();
+    while nfft > 256 && total / nfft < 5 {
+        nfft /= 2;
+    }
+    let sp = operating_spectra(parts, nfft).ok()?;
+    let per_output = sp
+        .coherence
+        .iter()
+        .zip(&sp.psd_out)
+        .map(|((a, g), (_, p))| (*a, g.iter().zip(p).map(|(g, p)| (1.0 - g) * p).collect()))
+        .collect();
+    Some(IncoherentLines {
+        df: sp.df_hz,
+        freqs: sp.freqs_hz.clone(),
+        per_output,
+        force_psd: (0..sp.freqs_hz.len())
+            .map(|l| sp.psd_in.iter().map(|(_, v)| v[l]).sum())
+            .collect(),
+    })
+}
+
 fn cand_disturbance(twin: &Twin, parts: &[TimeSeries]) -> Option<Cand> {
     let ts = parts.iter().max_by_key(|p| p.len())?;
     let f = force_rows(ts);
@@ -1326,6 +1573,11 @@ fn cand_disturbance(twin: &Twin, parts: &[TimeSeries]) -> Option<Cand> {
         loc.sort_by(f64::total_cmp);
         fmag[i] > 10.0 * loc[loc.len() / 2]
     };
+    // the evidence that a line comes from outside: the response power at it that is
+    // not coherent with the measured forces (multiple coherence, Welch over all parts)
+    // stands far above that of the neighbouring lines. A model error at a line the
+    // force drives stays coherent with the force; a tone from outside does not.
+    let incoherent = incoherent_lines(parts);
     for a in Axis::ALL {
         let Some(m) = ts.response(a) else { continue };
         let mut sim: Vec<f64> = y.iter().map(|r| r[a.index()]).collect();
@@ -1363,6 +1615,15 @@ fn cand_disturbance(twin: &Twin, parts: &[TimeSeries]) -> Option<Cand> {
             let (l, c, r) = (mag[i - 1].ln(), mag[i].ln(), mag[i + 1].ln());
             let delta = 0.5 * (l - r) / (l - 2.0 * c + r);
             let fhz = (i as f64 + delta) / (nfft as f64 * ts.dt);
+            let strength = incoherent
+                .as_ref()
+                .map_or(f64::INFINITY, |inc| inc.strength(a, fhz));
+            trace(|| {
+                format!("disturbance: {a} line at {fhz:.2} Hz, incoherent power {strength:.1} x its neighbours")
+            });
+            if strength < DISTURBANCE_MIN_STRENGTH {
+                continue;
+            }
             // least-squares amplitude on the absolute time base
             let w = 2.0 * PI * fhz;
             let (mut scc, mut sss, mut scs, mut syc, mut sys) = (0.0, 0.0, 0.0, 0.0, 0.0);
@@ -1397,11 +1658,23 @@ fn cand_disturbance(twin: &Twin, parts: &[TimeSeries]) -> Option<Cand> {
     if sines.is_empty() {
         return None;
     }
+    let strength = freqs_found
+        .iter()
+        .zip(&sines)
+        .map(|(f, sn)| {
+            incoherent
+                .as_ref()
+                .map_or(f64::INFINITY, |inc| inc.strength(sn.axis, *f))
+        })
+        .fold(f64::INFINITY, f64::min);
     let mut ext = twin.clone();
     ext.extensions.disturbance.extend(sines);
     let mut d = Map::new();
     freqs_found.sort_by(f64::total_cmp);
     d.insert("freq_hz".into(), json!(freqs_found));
+    if strength.is_finite() {
+        d.insert("incoherent_power_ratio".into(), json!(strength));
+    }
     Some(Cand {
         cause: Cause::Disturbance,
         chi: f64::NAN,
@@ -1496,7 +1769,21 @@ pub fn diagnose(
         .collect();
     let ev = evidence(&parts)?;
     let band = band_of(twin);
-    let mut pts = points(&ev, band, opts.min_coherence);
+    let mut pts = twin_points(&ev, twin, band, opts.min_coherence);
+    // tones from outside (continuous data): not the twin's business in the FRF evidence
+    let incoherent = if ev.kind == "continuous" {
+        incoherent_lines(&parts)
+    } else {
+        None
+    };
+    let tones = incoherent
+        .as_ref()
+        .map(IncoherentLines::tones)
+        .unwrap_or_default();
+    if let Some(inc) = &incoherent {
+        trace(|| format!("diagnose: proven tones at {tones:.2?} Hz"));
+        inc.drop_tone_points(&mut pts, &tones);
+    }
     let pose = {
         let mut p = [0.0; 3];
         let n: usize = parts.iter().map(TimeSeries::len).sum();
@@ -1525,11 +1812,9 @@ pub fn diagnose(
     if tracing() {
         let mut worst: Vec<(f64, f64, String, f64)> = Vec::new();
         for p in &pts {
-            let Some(ci) = model.channel_index(p.channel) else {
-                continue;
-            };
+            let ci = model.channel_index(p.channel);
             for ((f, h), sg) in p.freqs_hz.iter().zip(&p.h).zip(&p.sigma) {
-                let m = model.eval_hz(ci, *f);
+                let m = ci.map_or(Complex64::new(0.0, 0.0), |ci| model.eval_hz(ci, *f));
                 worst.push((
                     ((m - h) / sg).norm(),
                     *f,
@@ -1555,7 +1840,10 @@ pub fn diagnose(
         for g in &groups {
             let recs: Vec<TimeSeries> = g.records.iter().map(|&i| parts[i].clone()).collect();
             let Ok(e) = evidence(&recs) else { continue };
-            let mut p = points(&e, band, opts.min_coherence);
+            let mut p = twin_points(&e, twin, band, opts.min_coherence);
+            if let Some(inc) = &incoherent {
+                inc.drop_tone_points(&mut p, &tones);
+            }
             add_twin_uncertainty(&mut p, twin, g.pose);
             let m = evl.model_at(g.pose).clone();
             let delay = twin.extensions.delay_s.unwrap_or(0.0);
@@ -1569,7 +1857,10 @@ pub fn diagnose(
     let mut level_misfit = Vec::new();
     for recs in force_levels(&parts) {
         let Ok(e) = evidence(&recs) else { continue };
-        let mut p = points(&e, band, opts.min_coherence);
+        let mut p = twin_points(&e, twin, band, opts.min_coherence);
+        if let Some(inc) = &incoherent {
+            inc.drop_tone_points(&mut p, &tones);
+        }
         add_twin_uncertainty(&mut p, twin, pose);
         let delay = twin.extensions.delay_s.unwrap_or(0.0);
         let m =
@@ -1607,14 +1898,17 @@ pub fn diagnose(
         cands.extend(cand_time_delay(twin, &model, &pts, dt));
         cands.extend(cand_cross_coupling(twin, &model, &pts));
         cands.extend(cand_pose_dependence(twin, &parts, band, opts.min_coherence));
-        cands.extend(cand_nonlinearity(
-            twin,
-            &parts,
-            band,
-            opts.min_coherence,
-            pose,
-        ));
     }
+    // hits or records at clearly different force levels carry their own evidence (their
+    // FRFs disagree with each other), whether or not the pooled data misfit the twin:
+    // light and hard hits average into an FRF near the twin's
+    cands.extend(cand_nonlinearity(
+        twin,
+        &parts,
+        band,
+        opts.min_coherence,
+        pose,
+    ));
     cands.extend(cand_disturbance(twin, &parts));
     let mut scores = Vec::new();
     let mut best: Option<(usize, f64)> = None;
@@ -1634,7 +1928,16 @@ pub fn diagnose(
             Cause::Disturbance | Cause::PoseDependence | Cause::Nonlinearity
         ) || c.chi < 0.5 * chi0
             || c.chi < opts.chi_none;
-        if explains && fit > fit_before + opts.min_gain_pct && best.is_none_or(|b| fit > b.1) {
+        // a tone from outside is small in the response power (a few per cent of a
+        // milling record's acceleration): where the lines' incoherent power proves it
+        // (far beyond any noise scatter), any held-out gain confirms it
+        let proven_tone = c.cause == Cause::Disturbance
+            && c.details
+                .get("incoherent_power_ratio")
+                .and_then(Value::as_f64)
+                .is_some_and(|r| r >= DISTURBANCE_PROVEN_STRENGTH);
+        let need = if proven_tone { 0.0 } else { opts.min_gain_pct };
+        if explains && fit > fit_before + need && best.is_none_or(|b| fit > b.1) {
             best = Some((i, fit));
         }
     }

@@ -71,26 +71,32 @@ pub fn chi(model: &ModalModel, pts: &[Points], delay_s: f64) -> f64 {
 }
 
 /// Largest local RMS misfit in standard errors: over every window of ±2.5 % around a
-/// point (at least 5 points), per channel. A missing or shifted resonance is local; the
-/// global RMS of [`chi`] dilutes it over the whole band.
+/// point, widened to at least two points on each side (coarse lines at a low mode: a
+/// hit record of 0.4 s has lines 2.5 Hz apart, wider than ±2.5 % below 250 Hz), per
+/// channel. A missing or shifted resonance is local; the global RMS of [`chi`] dilutes
+/// it over the whole band.
 pub fn chi_local(model: &ModalModel, pts: &[Points], delay_s: f64) -> f64 {
     let mut worst: f64 = 0.0;
     for (p, r2) in pts.iter().zip(normalized_residuals(model, pts, delay_s)) {
         let f = &p.freqs_hz;
-        let (mut lo, mut hi) = (0usize, 0usize);
-        let mut acc = 0.0;
-        for i in 0..f.len() {
-            while hi < f.len() && f[hi] <= f[i] * 1.025 {
-                acc += r2[hi] / 2.0;
-                hi += 1;
-            }
-            while f[lo] < f[i] * 0.975 {
-                acc -= r2[lo] / 2.0;
-                lo += 1;
-            }
-            let n = hi - lo;
-            if n >= 5 {
-                worst = worst.max((acc.max(0.0) / n as f64).sqrt());
+        let n = f.len();
+        if n < 5 {
+            continue;
+        }
+        let mut cum = vec![0.0; n + 1];
+        for i in 0..n {
+            cum[i + 1] = cum[i] + r2[i] / 2.0;
+        }
+        for i in 0..n {
+            let lo = f
+                .partition_point(|x| *x < f[i] * 0.975)
+                .min(i.saturating_sub(2));
+            let hi = f
+                .partition_point(|x| *x <= f[i] * 1.025)
+                .max((i + 3).min(n));
+            let m = hi - lo;
+            if m >= 5 {
+                worst = worst.max(((cum[hi] - cum[lo]).max(0.0) / m as f64).sqrt());
             }
         }
     }

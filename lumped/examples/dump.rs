@@ -147,24 +147,36 @@ fn dump(out: &Path, seed: u64, random: bool) -> Result<(), lumped::Error> {
 
     // truth
     let freqs = linspace(20.0, 3000.0, 1000);
+    let acc_note = format!(
+        "with the {} kg accelerometer of the campaign at the tool tip",
+        setup.tip_mass
+    );
     for (k, p) in g.iter().enumerate() {
         machine
             .analytic_frf(*p, &freqs)
             .write_csv(&out.join(format!("truth/g{k:02}.csv")), &[])?;
+        machine
+            .analytic_frf_loaded(*p, &freqs, setup.tip_mass)
+            .write_csv(
+                &out.join(format!("truth/g{k:02}_loaded.csv")),
+                std::slice::from_ref(&acc_note),
+            )?;
     }
     for (k, p) in UNMEASURED.iter().enumerate() {
         machine.analytic_frf(*p, &freqs).write_csv(
             &out.join(format!("truth/u{k}.csv")),
             &["unmeasured pose".into()],
         )?;
+        machine
+            .analytic_frf_loaded(*p, &freqs, setup.tip_mass)
+            .write_csv(
+                &out.join(format!("truth/u{k}_loaded.csv")),
+                &["unmeasured pose".into(), acc_note.clone()],
+            )?;
     }
     machine
         .analytic_frf(CENTRE, &freqs)
         .write_csv(&out.join("truth/centre.csv"), &[])?;
-    let acc_note = format!(
-        "with the {} kg accelerometer of the campaign at the tool tip",
-        setup.tip_mass
-    );
     machine
         .analytic_frf_loaded(CENTRE, &freqs, setup.tip_mass)
         .write_csv(&out.join("truth/centre_loaded.csv"), &[acc_note])?;
@@ -279,6 +291,7 @@ quantisation on force and response. Responses are tool - workpiece (relative).
 | `worn_milling/mill_*.csv` | down-milling at the centre, feed along x (axes move), front bearing stiffness x{factor:.3} |
 | `diagnose/<case>/` + `diagnose/answers.json` | one hidden effect per folder at the centre and the SPEC section 4 answer |
 | `truth/gNN.csv`, `truth/u0..u2.csv` | analytic receptance (m/N), 9 channels, 20-3000 Hz, at the measured and 3 unmeasured poses |
+| `truth/gNN_loaded.csv`, `truth/uN_loaded.csv` | the same with the campaign's accelerometer mass at the tool tip (what the impact data can show) |
 | `truth/centre.csv`, `truth/centre_loaded.csv`, `truth/centre_worn.csv` | at the centre: as is, with the accelerometer mass, worn |
 | `truth/machine.json` | grid, poses, visible modes at the centre, the wear, all machine parameters |
 ",
