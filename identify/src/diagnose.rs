@@ -519,7 +519,7 @@ fn known_inputs(twin: &Twin) -> Option<Vec<Axis>> {
     Some(known)
 }
 
-/// [`points`] of the channels whose input the twin knows ([`known_inputs`]): a channel
+/// [`points`] of the channels whose input the twin knows (inputs of the channels it models or measured): a channel
 /// driven by a force the campaign never applied (the z force in milling, when only x
 /// and y were hit) is no evidence against the twin, it says nothing there. A response
 /// in another axis to a known force stays evidence (a cross coupling the twin lacks).
