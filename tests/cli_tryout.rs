@@ -48,6 +48,16 @@ fn twin_vs_truth(twin: &Twin, truth: &Frf, pose: [f64; 3], ch: Channel, band: (f
     fit_percent(&t, &e)
 }
 
+/// The tryout campaign's record files, sorted.
+fn campaign_files() -> Vec<PathBuf> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(tryout("campaign"))
+        .expect("campaign folder")
+        .map(|e| e.expect("entry").path())
+        .collect();
+    files.sort();
+    files
+}
+
 fn identify(files: &[PathBuf], out: &Path) -> Twin {
     let mut args: Vec<&str> = vec!["identify", "-q"];
     args.extend(files.iter().map(|f| s(f)));
@@ -60,11 +70,7 @@ fn identify(files: &[PathBuf], out: &Path) -> Twin {
 #[test]
 fn tryout_campaign_twin_fits_the_truth_better_than_its_own_h1() {
     let dir = tmp();
-    let mut files: Vec<PathBuf> = std::fs::read_dir(tryout("campaign"))
-        .expect("campaign folder")
-        .map(|e| e.expect("entry").path())
-        .collect();
-    files.sort();
+    let files = campaign_files();
     let twin = identify(&files, &dir.path().join("twin.json"));
     assert_eq!(twin.poses.len(), 12);
     let xx = Channel::new(Axis::X, Axis::X);
@@ -261,11 +267,7 @@ fn real_impact_defaults_choose_a_trusted_band_and_many_modes() {
 #[test]
 fn tryout_diagnosis_names_all_four_cases() {
     let dir = tmp();
-    let mut files: Vec<PathBuf> = std::fs::read_dir(tryout("campaign"))
-        .expect("campaign folder")
-        .map(|e| e.expect("entry").path())
-        .collect();
-    files.sort();
+    let files = campaign_files();
     let twin_path = dir.path().join("twin.json");
     identify(&files, &twin_path);
     let answers: serde_json::Value = serde_json::from_str(

@@ -1392,25 +1392,32 @@ struct IncoherentLines {
     force_psd: Vec<f64>,
 }
 
+/// Median of `p` over the lines 4..24 away from `l` on both sides (the neighbourhood a
+/// line stands out of); `None` without such lines.
+fn side_median(p: &[f64], l: usize) -> Option<f64> {
+    let mut side: Vec<f64> = (4..=24)
+        .flat_map(|d| [l.checked_sub(d), Some(l + d)])
+        .flatten()
+        .filter(|&j| j < p.len())
+        .map(|j| p[j])
+        .collect();
+    if side.is_empty() {
+        return None;
+    }
+    side.sort_by(f64::total_cmp);
+    Some(side[side.len() / 2])
+}
+
 impl IncoherentLines {
     /// Whether line `l` (or a neighbour) is a line of the force itself (a periodic force:
     /// tooth passing, spindle): its summed PSD 3× above the median of lines 4..24 away.
     fn force_line(&self, l: usize) -> bool {
         let p = &self.force_psd;
-        let mut side: Vec<f64> = (4..=24)
-            .flat_map(|d| [l.checked_sub(d), Some(l + d)])
-            .flatten()
-            .filter(|&j| j < p.len())
-            .map(|j| p[j])
-            .collect();
-        if side.is_empty() {
-            return false;
-        }
-        side.sort_by(f64::total_cmp);
-        let med = side[side.len() / 2];
-        p[l.saturating_sub(1)..(l + 2).min(p.len())]
-            .iter()
-            .any(|v| *v > 3.0 * med)
+        side_median(p, l).is_some_and(|med| {
+            p[l.saturating_sub(1)..(l + 2).min(p.len())]
+                .iter()
+                .any(|v| *v > 3.0 * med)
+        })
     }
 
     /// Index of the line nearest to `f`.
@@ -1436,17 +1443,7 @@ impl IncoherentLines {
         let peak = p[l.saturating_sub(1)..(l + 2).min(p.len())]
             .iter()
             .fold(0.0f64, |m, v| m.max(*v));
-        let mut side: Vec<f64> = (4..=24)
-            .flat_map(|d| [l.checked_sub(d), Some(l + d)])
-            .flatten()
-            .filter(|&j| j < p.len())
-            .map(|j| p[j])
-            .collect();
-        if side.is_empty() {
-            return 0.0;
-        }
-        side.sort_by(f64::total_cmp);
-        peak / side[side.len() / 2].max(1e-300)
+        side_median(p, l).map_or(0.0, |med| peak / med.max(1e-300))
     }
 }
 
