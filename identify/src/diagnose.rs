@@ -472,14 +472,17 @@ pub fn points(ev: &Evidence, band: (f64, f64), min_coh: f64) -> Vec<Points> {
             // resonance and the floor would swamp the Welch errors). Impact evidence keeps
             // the peak over all lines: its thresholds and the nonlinearity retunes were
             // tuned with that floor (with the in-band peak, 18 → 20/20 new modes but
-            // 17 → 6/20 nonlinearities found in bench/diagnose_confusion.md's impact run)
+            // 17 → 6/20 nonlinearities found in bench/diagnose_confusion.md's impact run).
+            // Both only over coherent lines: an accelerometer's low-frequency noise
+            // divided by ω² (1/f noise, a second generator) made the impact floor
+            // absurd, every misfit hid under it (a 2-sample delay, rel. error 1.9: 1 σ)
             let continuous = ev.kind == "continuous";
             let hmax = h
                 .iter()
                 .zip(&ev.freqs_hz)
                 .zip(g)
                 .filter(|((_, f), g)| {
-                    !continuous || (**f >= band.0 && **f <= band.1 && **g >= min_coh)
+                    **g >= min_coh && (!continuous || (**f >= band.0 && **f <= band.1))
                 })
                 .map(|((v, _), _)| v.norm())
                 .fold(0.0, f64::max);
@@ -528,8 +531,43 @@ pub fn twin_points(ev: &Evidence, twin: &Twin, band: (f64, f64), min_coh: f64) -
     if let Some(known) = known_inputs(twin) {
         pts.retain(|p| known.contains(&p.channel.input));
     }
+    // a channel the twin holds empty is evidence only where the response is coherent
+    // over a run of lines (a resonance): with a few averages, noise alone passes the
+    // coherence threshold on isolated lines (about 1 % of them with 4 averages), and
+    // against a model of zero each such line is a many-sigma misfit
+    let df = ev
+        .freqs_hz
+        .get(1)
+        .zip(ev.freqs_hz.first())
+        .map_or(0.0, |(b, a)| b - a);
+    for p in pts
+        .iter_mut()
+        .filter(|p| !twin.channels.contains(&p.channel))
+    {
+        let n = p.freqs_hz.len();
+        let mut keep = vec![false; n];
+        let mut start = 0;
+        for i in 1..=n {
+            if i == n || p.freqs_hz[i] - p.freqs_hz[i - 1] > 1.5 * df {
+                if i - start >= EMPTY_CHANNEL_MIN_RUN {
+                    keep[start..i].iter_mut().for_each(|k| *k = true);
+                }
+                start = i;
+            }
+        }
+        let mut k = keep.iter();
+        p.freqs_hz.retain(|_| *k.next().unwrap_or(&false));
+        let mut k = keep.iter();
+        p.h.retain(|_| *k.next().unwrap_or(&false));
+        let mut k = keep.iter();
+        p.sigma.retain(|_| *k.next().unwrap_or(&false));
+    }
+    pts.retain(|p| !p.h.is_empty());
     pts
 }
+
+/// Consecutive coherent lines a channel the twin holds empty needs to count as evidence.
+const EMPTY_CHANNEL_MIN_RUN: usize = 5;
 
 /// Adds the twin's own uncertainty to the standard errors of `pts`: at each line, the
 /// local RMS misfit (±2.5 % of frequency, at least the nearest line) of the twin's
@@ -982,6 +1020,7 @@ fn cand_nonlinearity(
     band: (f64, f64),
     min_coh: f64,
     pose: [f64; 3],
+    min_ratio: f64,
 ) -> Option<Cand> {
     let parts = &level_units(parts);
     let peak = |ts: &TimeSeries| force_mag(ts).iter().fold(0.0f64, |a, v| a.max(*v));
@@ -989,7 +1028,7 @@ fn cand_nonlinearity(
     let (lo, hi) = peaks
         .iter()
         .fold((f64::INFINITY, 0.0f64), |(a, b), p| (a.min(*p), b.max(*p)));
-    if !(lo > 0.0 && hi >= 2.0 * lo) {
+    if !(lo > 0.0 && hi >= min_ratio * lo) {
         return None;
     }
     trace(|| format!("nonlinearity: force peaks {lo:.1}..{hi:.1} N"));
@@ -1899,12 +1938,21 @@ pub fn diagnose(
     // hits or records at clearly different force levels carry their own evidence (their
     // FRFs disagree with each other), whether or not the pooled data misfit the twin:
     // light and hard hits average into an FRF near the twin's
+    // (without a misfit, only a test at clearly different levels counts: hand-held
+    // hammer hits vary by 2-3x by themselves, and a few hits per level scatter the
+    // retuned modes by several per cent; a record at another depth of cut is a level)
+    let min_ratio = if misfit || ev.kind != "impact" {
+        2.0
+    } else {
+        4.0
+    };
     cands.extend(cand_nonlinearity(
         twin,
         &parts,
         band,
         opts.min_coherence,
         pose,
+        min_ratio,
     ));
     cands.extend(cand_disturbance(twin, &parts));
     let mut scores = Vec::new();

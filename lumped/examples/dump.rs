@@ -252,6 +252,21 @@ fn dump(out: &Path, seed: u64, random: bool) -> Result<(), lumped::Error> {
         &serde_json::to_string_pretty(&info).unwrap_or_default(),
     )?;
 
+    // a healthy impact test at the centre (where the hidden effects are): a one-pose twin
+    // to judge the detectors on, apart from the campaign's interpolation
+    for (a, name) in [(0usize, "x"), (1, "y")] {
+        impact_record(
+            &machine,
+            &setup,
+            CENTRE,
+            a,
+            5,
+            2.0,
+            seed * 1000 + 700 + a as u64,
+        )
+        .write_csv(&out.join(format!("centre_impact/imp_{name}.csv")))?;
+    }
+
     // hidden effects
     let cases: Vec<_> = Effect::ALL
         .par_iter()
@@ -289,6 +304,7 @@ quantisation on force and response. Responses are tool - workpiece (relative).
 | `campaign/gNN_{{x,y}}.csv` | impact tests at 18 poses (x 0.1/0.4/0.7, y 0.1/0.3/0.5, z 0.05/0.25 m), hammer along x or y, 5 hits, 10240 Hz, accelerations (12 g accelerometer at the tool tip) |
 | `sweep_centre_x.csv` | shaker, logarithmic sweep 20-2500 Hz along x in 8 s then 1.5 s rest, at the centre (0.4, 0.3, 0.15), displacement |
 | `worn_milling/mill_*.csv` | down-milling at the centre, feed along x (axes move), front bearing stiffness x{factor:.3} |
+| `centre_impact/imp_{{x,y}}.csv` | healthy impact test at the centre (5 hits each): a one-pose twin for the diagnose cases |
 | `diagnose/<case>/` + `diagnose/answers.json` | one hidden effect per folder at the centre and the SPEC section 4 answer |
 | `truth/gNN.csv`, `truth/u0..u2.csv` | analytic receptance (m/N), 9 channels, 20-3000 Hz, at the measured and 3 unmeasured poses |
 | `truth/gNN_loaded.csv`, `truth/uN_loaded.csv` | the same with the campaign's accelerometer mass at the tool tip (what the impact data can show) |
