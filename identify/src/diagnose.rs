@@ -1707,6 +1707,8 @@ fn cand_disturbance(twin: &Twin, parts: &[TimeSeries]) -> Option<Cand> {
     ext.extensions.disturbance.extend(sines);
     let mut d = Map::new();
     freqs_found.sort_by(f64::total_cmp);
+    // one tone seen in several response axes is one frequency of the disturbance
+    freqs_found.dedup_by(|b, a| (*b - *a).abs() <= 2e-3 * *a);
     d.insert("freq_hz".into(), json!(freqs_found));
     if strength.is_finite() {
         d.insert("incoherent_power_ratio".into(), json!(strength));
