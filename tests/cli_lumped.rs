@@ -6,7 +6,7 @@
 
 mod common;
 
-use common::{mtwin, s, stderr, tmp};
+use common::{f64_list, mtwin, s, stderr, tmp};
 use lumped::effects::{case, Effect};
 use lumped::measure::{impact_record, Setup};
 use lumped::structure::{Machine, CENTRE};
@@ -65,14 +65,8 @@ fn lumped_one_pose_twin_diagnoses_healthy_disturbance_and_delay() {
         let truth = &c.answer["details"];
         match effect {
             Effect::Disturbance => {
-                let found: Vec<f64> = det["freq_hz"]
-                    .as_array()
-                    .map(|v| v.iter().filter_map(serde_json::Value::as_f64).collect())
-                    .unwrap_or_default();
-                let want: Vec<f64> = truth["freq_hz"]
-                    .as_array()
-                    .map(|v| v.iter().filter_map(serde_json::Value::as_f64).collect())
-                    .unwrap_or_default();
+                let found = f64_list(&det["freq_hz"]);
+                let want = f64_list(&truth["freq_hz"]);
                 assert_eq!(found.len(), want.len(), "{found:?} vs {want:?}");
                 for f in &want {
                     assert!(

@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::{mtwin, pose_of, s, shared_data, stderr, tmp};
+use common::{f64_list, mtwin, pose_of, s, shared_data, stderr, tmp};
 use identify::axis::{Axis, Channel};
 use identify::frf::{fit_percent, Frf};
 use identify::interpolate::TwinEvaluator;
@@ -303,14 +303,8 @@ fn tryout_diagnosis_names_all_four_cases() {
         let numbers_right = match want {
             "none" => true,
             "disturbance" => {
-                let found: Vec<f64> = det["freq_hz"]
-                    .as_array()
-                    .map(|v| v.iter().filter_map(serde_json::Value::as_f64).collect())
-                    .unwrap_or_default();
-                let t: Vec<f64> = tdet["freq_hz"]
-                    .as_array()
-                    .map(|v| v.iter().filter_map(serde_json::Value::as_f64).collect())
-                    .unwrap_or_default();
+                let found = f64_list(&det["freq_hz"]);
+                let t = f64_list(&tdet["freq_hz"]);
                 found.len() == t.len() && t.iter().all(|f| found.iter().any(|g| close(*g, *f)))
             }
             _ => {

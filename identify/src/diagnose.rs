@@ -555,15 +555,20 @@ pub fn twin_points(ev: &Evidence, twin: &Twin, band: (f64, f64), min_coh: f64) -
                 start = i;
             }
         }
-        let mut k = keep.iter();
-        p.freqs_hz.retain(|_| *k.next().unwrap_or(&false));
-        let mut k = keep.iter();
-        p.h.retain(|_| *k.next().unwrap_or(&false));
-        let mut k = keep.iter();
-        p.sigma.retain(|_| *k.next().unwrap_or(&false));
+        retain_lines(p, &keep);
     }
     pts.retain(|p| !p.h.is_empty());
     pts
+}
+
+/// Keeps the lines of `p` where `keep` is true (same length as `p`'s lines).
+fn retain_lines(p: &mut Points, keep: &[bool]) {
+    let mut k = keep.iter();
+    p.freqs_hz.retain(|_| *k.next().unwrap_or(&false));
+    let mut k = keep.iter();
+    p.h.retain(|_| *k.next().unwrap_or(&false));
+    let mut k = keep.iter();
+    p.sigma.retain(|_| *k.next().unwrap_or(&false));
 }
 
 /// Consecutive coherent lines a channel the twin holds empty needs to count as evidence.
@@ -1531,12 +1536,7 @@ impl IncoherentLines {
                 .iter()
                 .map(|f| tones.iter().all(|t| (t - f).abs() > w))
                 .collect();
-            let mut k = keep.iter();
-            p.freqs_hz.retain(|_| *k.next().unwrap_or(&true));
-            let mut k = keep.iter();
-            p.h.retain(|_| *k.next().unwrap_or(&true));
-            let mut k = keep.iter();
-            p.sigma.retain(|_| *k.next().unwrap_or(&true));
+            retain_lines(p, &keep);
         }
         pts.retain(|p| !p.h.is_empty());
     }

@@ -55,3 +55,10 @@ pub fn pose_of(path: &Path) -> [f64; 3] {
         .collect();
     [p[0], p[1], p[2]]
 }
+
+/// The numbers of a JSON array (empty when it is none).
+pub fn f64_list(v: &serde_json::Value) -> Vec<f64> {
+    v.as_array()
+        .map(|a| a.iter().filter_map(serde_json::Value::as_f64).collect())
+        .unwrap_or_default()
+}
