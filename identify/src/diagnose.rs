@@ -278,15 +278,7 @@ pub struct Evidence {
 fn impact_evidence(parts: &[TimeSeries]) -> Result<Evidence> {
     let mut segs: Vec<(Axis, TimeSeries)> = Vec::new();
     for ts in parts {
-        let hits = hit_starts(ts);
-        let pre = (0.002 / ts.dt) as usize;
-        for (h, &s) in hits.iter().enumerate() {
-            let a = s.saturating_sub(pre);
-            let b = hits.get(h + 1).map_or(ts.len(), |&n| n.saturating_sub(pre));
-            if b <= a + 16 {
-                continue;
-            }
-            let seg = slice(ts, a, b);
+        for seg in hit_segments(ts) {
             let axis = Axis::ALL
                 .into_iter()
                 .filter(|x| seg.force(*x).is_some())
@@ -973,17 +965,24 @@ fn level_units(parts: &[TimeSeries]) -> Vec<TimeSeries> {
             out.push(ts.clone());
             continue;
         }
-        let hits = hit_starts(ts);
-        let pre = (0.002 / ts.dt) as usize;
-        for (h, &s) in hits.iter().enumerate() {
-            let a = s.saturating_sub(pre);
-            let b = hits.get(h + 1).map_or(ts.len(), |&n| n.saturating_sub(pre));
-            if b > a + 16 {
-                out.push(slice(ts, a, b));
-            }
-        }
+        out.extend(hit_segments(ts));
     }
     out
+}
+
+/// Each hit of an impact record as its own record: from a 2 ms pre-trigger to the next
+/// hit's pre-trigger (or the end); segments of 16 samples or fewer are skipped.
+fn hit_segments(ts: &TimeSeries) -> Vec<TimeSeries> {
+    let hits = hit_starts(ts);
+    let pre = (0.002 / ts.dt) as usize;
+    hits.iter()
+        .enumerate()
+        .filter_map(|(h, &s)| {
+            let a = s.saturating_sub(pre);
+            let b = hits.get(h + 1).map_or(ts.len(), |&n| n.saturating_sub(pre));
+            (b > a + 16).then(|| slice(ts, a, b))
+        })
+        .collect()
 }
 
 fn force_levels(parts: &[TimeSeries]) -> Vec<Vec<TimeSeries>> {
@@ -1568,7 +1567,11 @@ fn incoherent_lines(parts: &[TimeSeries]) -> Option<IncoherentLines> {
     })
 }
 
-fn cand_disturbance(twin: &Twin, parts: &[TimeSeries]) -> Option<Cand> {
+fn cand_disturbance(
+    twin: &Twin,
+    parts: &[TimeSeries],
+    incoherent: Option<&IncoherentLines>,
+) -> Option<Cand> {
     let ts = parts.iter().max_by_key(|p| p.len())?;
     let f = force_rows(ts);
     let y = simulate_extended(twin, &f, |i| ts.position_at(i), ts.t0, ts.dt, Hold::Foh).ok()?;
@@ -1613,7 +1616,6 @@ fn cand_disturbance(twin: &Twin, parts: &[TimeSeries]) -> Option<Cand> {
     // not coherent with the measured forces (multiple coherence, Welch over all parts)
     // stands far above that of the neighbouring lines. A model error at a line the
     // force drives stays coherent with the force; a tone from outside does not.
-    let incoherent = incoherent_lines(parts);
     for a in Axis::ALL {
         let Some(m) = ts.response(a) else { continue };
         let mut sim: Vec<f64> = y.iter().map(|r| r[a.index()]).collect();
@@ -1809,15 +1811,12 @@ pub fn diagnose(
     let band = band_of(twin);
     let mut pts = twin_points(&ev, twin, band, opts.min_coherence);
     // tones from outside (continuous data): not the twin's business in the FRF evidence
-    let incoherent = if ev.kind == "continuous" {
-        incoherent_lines(&parts)
-    } else {
-        None
+    // (computed once: the disturbance detector judges its residual lines by it too)
+    let incoherent = incoherent_lines(&parts);
+    let tones = match (&incoherent, ev.kind == "continuous") {
+        (Some(inc), true) => inc.tones(),
+        _ => Vec::new(),
     };
-    let tones = incoherent
-        .as_ref()
-        .map(IncoherentLines::tones)
-        .unwrap_or_default();
     if let Some(inc) = &incoherent {
         trace(|| format!("diagnose: proven tones at {tones:.2?} Hz"));
         inc.drop_tone_points(&mut pts, &tones);
@@ -1956,7 +1955,7 @@ pub fn diagnose(
         pose,
         min_ratio,
     ));
-    cands.extend(cand_disturbance(twin, &parts));
+    cands.extend(cand_disturbance(twin, &parts, incoherent.as_ref()));
     let mut scores = Vec::new();
     let mut best: Option<(usize, f64)> = None;
     for (i, c) in cands.iter().enumerate() {
