@@ -68,6 +68,22 @@ fn simulate_cubic(
     hold: Hold,
     cubic: &[crate::twin::CubicStiffness],
 ) -> Vec<[f64; 3]> {
+    if hold == Hold::BandLimited {
+        return crate::simulate::run_band_limited(forces, dt, |f, h, coarse| {
+            simulate_cubic_dyn(ev, f, &|m| pose_at(coarse(m)), h, Hold::Foh, cubic)
+        });
+    }
+    simulate_cubic_dyn(ev, forces, pose_at, dt, hold, cubic)
+}
+
+fn simulate_cubic_dyn(
+    ev: &mut TwinEvaluator,
+    forces: &[[f64; 3]],
+    pose_at: &dyn Fn(usize) -> [f64; 3],
+    dt: f64,
+    hold: Hold,
+    cubic: &[crate::twin::CubicStiffness],
+) -> Vec<[f64; 3]> {
     let nm = ev.n_modes();
     let kappa: Vec<f64> = (0..nm)
         .map(|k| cubic.iter().filter(|c| c.mode == k).map(|c| c.kappa).sum())

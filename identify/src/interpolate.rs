@@ -45,6 +45,27 @@ pub fn simulate_twin(
     dt: f64,
     hold: crate::simulate::Hold,
 ) -> Vec<[f64; 3]> {
+    if hold == crate::simulate::Hold::BandLimited {
+        return crate::simulate::run_band_limited(forces, dt, |f, h, coarse| {
+            simulate_twin_dyn(
+                ev,
+                f,
+                &|m| pose_at(coarse(m)),
+                h,
+                crate::simulate::Hold::Foh,
+            )
+        });
+    }
+    simulate_twin_dyn(ev, forces, &pose_at, dt, hold)
+}
+
+fn simulate_twin_dyn(
+    ev: &mut TwinEvaluator,
+    forces: &[[f64; 3]],
+    pose_at: &dyn Fn(usize) -> [f64; 3],
+    dt: f64,
+    hold: crate::simulate::Hold,
+) -> Vec<[f64; 3]> {
     let mut out = Vec::with_capacity(forces.len());
     if forces.is_empty() {
         return out;
