@@ -52,6 +52,7 @@ pub mod plan;
 pub mod rational_fit;
 pub mod read;
 pub mod refit;
+mod signal;
 pub mod simulate;
 pub mod spectra;
 pub mod stabilization;

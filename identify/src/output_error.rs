@@ -747,7 +747,7 @@ pub fn refine(
         }
         let cut;
         let ts = if ts.len() > opts.max_samples.max(64) {
-            cut = crate::diagnose::slice(ts, 0, opts.max_samples.max(64));
+            cut = crate::signal::slice(ts, 0, opts.max_samples.max(64));
             &cut
         } else {
             ts

@@ -1,0 +1,123 @@
+//! What the causes' detectors share: the candidate extension each proposes ([`Cand`]) and
+//! the model edits and refits they are built from.
+
+use super::Cause;
+use crate::axis::Axis;
+use crate::error::Result;
+use crate::modal_update::{update_modes, Points, Prior};
+use crate::model::{ChannelModel, ModalModel, Mode, ModeNum};
+use crate::twin::Twin;
+use nalgebra::{DMatrix, DVector};
+use num_complex::Complex64;
+use serde_json::{Map, Value};
+use std::f64::consts::PI;
+
+/// Replaces the model of every pose by `f(model)`.
+pub(super) fn map_models(twin: &Twin, f: impl Fn(&ModalModel) -> ModalModel) -> Twin {
+    let mut t = twin.clone();
+    for p in &mut t.poses {
+        p.model = f(&p.model);
+    }
+    t
+}
+
+pub(super) fn dominant_axis(model: &ModalModel, k: usize) -> Axis {
+    model
+        .channels
+        .iter()
+        .filter(|c| c.channel.output == c.channel.input)
+        .max_by(|a, b| {
+            let m = model.modes[k];
+            let g = |c: &ChannelModel| {
+                (c.num[k].b0.abs() + c.num[k].b1.abs() * m.wn) / (m.zeta * m.wn * m.wn)
+            };
+            g(a).total_cmp(&g(b))
+        })
+        .map_or(Axis::X, |c| c.channel.output)
+}
+
+/// Linear least squares of a channel's numerators and residual with fixed poles.
+pub(super) fn fit_numerators(
+    modes: &[Mode],
+    p: &Points,
+    residual_of: impl Fn(f64) -> Complex64,
+) -> Option<ChannelModel> {
+    let n = modes.len();
+    let rows = 2 * p.h.len();
+    if rows < 2 * n + 1 {
+        return None;
+    }
+    let mut a = DMatrix::zeros(rows, 2 * n + 1);
+    let mut b = DVector::zeros(rows);
+    for (i, ((f, h), sg)) in p.freqs_hz.iter().zip(&p.h).zip(&p.sigma).enumerate() {
+        let s = Complex64::new(0.0, 2.0 * PI * f);
+        let target = (h - residual_of(*f)) / sg;
+        b[2 * i] = target.re;
+        b[2 * i + 1] = target.im;
+        for (k, m) in modes.iter().enumerate() {
+            let c0 = 1.0 / m.den(s) / sg;
+            let c1 = s / m.den(s) / sg;
+            a[(2 * i, 2 * k)] = c0.re;
+            a[(2 * i + 1, 2 * k)] = c0.im;
+            a[(2 * i, 2 * k + 1)] = c1.re;
+            a[(2 * i + 1, 2 * k + 1)] = c1.im;
+        }
+        a[(2 * i, 2 * n)] = 1.0 / sg;
+    }
+    // column scaling for conditioning
+    let scales: Vec<f64> = (0..2 * n + 1)
+        .map(|j| a.column(j).norm().max(1e-300))
+        .collect();
+    for (j, sc) in scales.iter().enumerate() {
+        a.column_mut(j).scale_mut(1.0 / sc);
+    }
+    let x = a.svd(true, true).solve(&b, 1e-12).ok()?;
+    Some(ChannelModel {
+        channel: p.channel,
+        num: (0..n)
+            .map(|k| ModeNum {
+                b0: x[2 * k] / scales[2 * k],
+                b1: x[2 * k + 1] / scales[2 * k + 1],
+            })
+            .collect(),
+        d: x[2 * n] / scales[2 * n],
+    })
+}
+
+pub(super) struct Cand {
+    pub(super) cause: Cause,
+    pub(super) twin: Twin,
+    pub(super) chi: f64,
+    pub(super) details: Map<String, Value>,
+}
+
+/// Mode `k` of `model` alone refitted to `pts` (frequency may move up to ~30 %).
+pub(super) fn retune(
+    model: &ModalModel,
+    k: usize,
+    pts: &[Points],
+) -> Result<crate::modal_update::UpdateResult> {
+    let prior = Prior {
+        ln_wn: 0.3,
+        ..Prior::default()
+    };
+    update_modes(model, &[k], pts, prior, 40)
+}
+
+/// The points of `pts` between `lo` and `hi` Hz.
+pub(super) fn near_points(pts: &[Points], lo: f64, hi: f64) -> Vec<Points> {
+    pts.iter()
+        .map(|p| {
+            let keep: Vec<usize> = (0..p.freqs_hz.len())
+                .filter(|&i| p.freqs_hz[i] >= lo && p.freqs_hz[i] <= hi)
+                .collect();
+            Points {
+                channel: p.channel,
+                freqs_hz: keep.iter().map(|&i| p.freqs_hz[i]).collect(),
+                h: keep.iter().map(|&i| p.h[i]).collect(),
+                sigma: keep.iter().map(|&i| p.sigma[i]).collect(),
+            }
+        })
+        .filter(|p| !p.h.is_empty())
+        .collect()
+}

@@ -1,0 +1,234 @@
+//! Cause `disturbance`: sinusoids at residual peaks the measured forces do not explain, and
+//! the proven tones from outside that the FRF evidence leaves out.
+
+use super::candidate::Cand;
+use super::evidence::{retain_lines, IncoherentLines};
+use super::{trace, Cause};
+use crate::axis::Axis;
+use crate::extended::simulate_extended;
+use crate::modal_update::Points;
+use crate::signal::second_derivative;
+use crate::simulate::{force_rows, Hold};
+use crate::timeseries::{ResponseKind, TimeSeries};
+use crate::twin::{Sinusoid, Twin};
+use num_complex::Complex64;
+use rustfft::FftPlanner;
+use serde_json::{json, Map};
+use std::f64::consts::PI;
+
+/// Narrowband peaks of the building part's residual that the forces do not explain.
+/// A residual line counts as a disturbance only when the response power at it that is
+/// not coherent with the forces stands this many times above the median of its
+/// neighbourhood (±24 lines): a tone from outside. Broadband noise scatters such a ratio
+/// by a factor of about 3 over 8 averages.
+const DISTURBANCE_MIN_STRENGTH: f64 = 20.0;
+
+/// Incoherent-power ratio above which a disturbance needs no minimum held-out gain.
+pub(super) const DISTURBANCE_PROVEN_STRENGTH: f64 = 1000.0;
+
+impl IncoherentLines {
+    /// Frequencies of lines whose incoherent power proves a tone from outside
+    /// ([`DISTURBANCE_PROVEN_STRENGTH`]), any output.
+    pub(super) fn tones(&self) -> Vec<f64> {
+        let mut out: Vec<f64> = Vec::new();
+        for (a, p) in &self.per_output {
+            for l in 1..p.len().saturating_sub(1) {
+                if p[l] < p[l - 1] || p[l] < p[l + 1] {
+                    continue;
+                }
+                let f = self.freqs[l];
+                // a tone is one line wide (Hann: ±2 lines) and takes the coherence with
+                // it; a resonance of a slightly time-varying machine is wider and stays
+                // coherent
+                let narrow = [l.checked_sub(4), Some(l + 4)]
+                    .into_iter()
+                    .flatten()
+                    .filter(|&j| j < p.len())
+                    .all(|j| p[j] < 0.01 * p[l]);
+                if narrow
+                    && !self.force_line(l)
+                    && self.strength(*a, f) >= DISTURBANCE_PROVEN_STRENGTH
+                    && !out.iter().any(|g| (g - f).abs() < 3.0 * self.df)
+                {
+                    out.push(f);
+                }
+            }
+        }
+        out
+    }
+
+    /// Removes the FRF points within 3 Welch lines of a proven tone: there the response
+    /// is not the force's, and the FRF estimate's leakage around the tone is no evidence
+    /// against the twin.
+    pub(super) fn drop_tone_points(&self, pts: &mut Vec<Points>, tones: &[f64]) {
+        if tones.is_empty() {
+            return;
+        }
+        let w = 3.0 * self.df;
+        for p in pts.iter_mut() {
+            let keep: Vec<bool> = p
+                .freqs_hz
+                .iter()
+                .map(|f| tones.iter().all(|t| (t - f).abs() > w))
+                .collect();
+            retain_lines(p, &keep);
+        }
+        pts.retain(|p| !p.h.is_empty());
+    }
+}
+
+pub(super) fn cand_disturbance(
+    twin: &Twin,
+    parts: &[TimeSeries],
+    incoherent: Option<&IncoherentLines>,
+) -> Option<Cand> {
+    let ts = parts.iter().max_by_key(|p| p.len())?;
+    let f = force_rows(ts);
+    let y = simulate_extended(twin, &f, |i| ts.position_at(i), ts.t0, ts.dt, Hold::Foh).ok()?;
+    let n = ts.len();
+    let nfft = n.next_power_of_two();
+    let fft = FftPlanner::<f64>::new().plan_fft_forward(nfft);
+    let mut sines = Vec::new();
+    let mut freqs_found = Vec::new();
+    // the force's own lines (a periodic force, e.g. the tooth-passing harmonics in
+    // milling): a residual peak there is the twin's error at a forced line, not a
+    // vibration from outside
+    let hann = |x: &[f64]| -> Vec<f64> {
+        let mut b: Vec<Complex64> = x
+            .iter()
+            .enumerate()
+            .map(|(i, v)| {
+                Complex64::new(
+                    v * (0.5 - 0.5 * (2.0 * PI * i as f64 / n as f64).cos()),
+                    0.0,
+                )
+            })
+            .collect();
+        b.resize(nfft, Complex64::new(0.0, 0.0));
+        fft.process(&mut b);
+        b[..nfft / 2].iter().map(|c| c.norm()).collect()
+    };
+    let mut fmag = vec![0.0; nfft / 2];
+    for fa in Axis::ALL.iter().filter_map(|a| ts.force(*a)) {
+        let mean = fa.iter().sum::<f64>() / n.max(1) as f64;
+        let centred: Vec<f64> = fa.iter().map(|v| v - mean).collect();
+        fmag.iter_mut()
+            .zip(hann(&centred))
+            .for_each(|(t, v)| *t += v);
+    }
+    let forced = |i: usize| -> bool {
+        let w = 64usize;
+        let mut loc: Vec<f64> = fmag[i.saturating_sub(w)..(i + w + 1).min(fmag.len())].to_vec();
+        loc.sort_by(f64::total_cmp);
+        fmag[i] > 10.0 * loc[loc.len() / 2]
+    };
+    // the evidence that a line comes from outside: the response power at it that is
+    // not coherent with the measured forces (multiple coherence, Welch over all parts)
+    // stands far above that of the neighbouring lines. A model error at a line the
+    // force drives stays coherent with the force; a tone from outside does not.
+    for a in Axis::ALL {
+        let Some(m) = ts.response(a) else { continue };
+        let mut sim: Vec<f64> = y.iter().map(|r| r[a.index()]).collect();
+        if ts.response_kind == Some(ResponseKind::Acceleration) {
+            sim = second_derivative(&sim, ts.dt);
+        }
+        let res: Vec<f64> = m.iter().zip(&sim).map(|(a, b)| a - b).collect();
+        let win: Vec<f64> = (0..n)
+            .map(|i| 0.5 - 0.5 * (2.0 * PI * i as f64 / n as f64).cos())
+            .collect();
+        let mut spec: Vec<Complex64> = res
+            .iter()
+            .zip(&win)
+            .map(|(r, w)| Complex64::new(r * w, 0.0))
+            .collect();
+        spec.resize(nfft, Complex64::new(0.0, 0.0));
+        fft.process(&mut spec);
+        let mag: Vec<f64> = spec[..nfft / 2].iter().map(|c| c.norm()).collect();
+        let mut sorted = mag.clone();
+        sorted.sort_by(f64::total_cmp);
+        let median = sorted[sorted.len() / 2].max(1e-300);
+        // local maxima 30× above the median and as narrow as a pure tone (Hann main lobe
+        // ±2 bins: 10× down at ±5 bins; a model error around a resonance is as wide as the
+        // resonance), strongest first, at most 3
+        let mut peaks: Vec<(f64, usize)> = (5..mag.len().saturating_sub(5))
+            .filter(|&i| mag[i] > 30.0 * median && mag[i] >= mag[i - 1] && mag[i] >= mag[i + 1])
+            .filter(|&i| mag[i] >= 10.0 * mag[i - 5].max(mag[i + 5]))
+            .filter(|&i| !forced(i))
+            .map(|i| (mag[i], i))
+            .collect();
+        peaks.sort_by(|x, y| y.0.total_cmp(&x.0));
+        peaks.truncate(3);
+        for (_, i) in peaks {
+            // parabolic interpolation of the peak on the log magnitude
+            let (l, c, r) = (mag[i - 1].ln(), mag[i].ln(), mag[i + 1].ln());
+            let delta = 0.5 * (l - r) / (l - 2.0 * c + r);
+            let fhz = (i as f64 + delta) / (nfft as f64 * ts.dt);
+            let strength = incoherent
+                .as_ref()
+                .map_or(f64::INFINITY, |inc| inc.strength(a, fhz));
+            trace(|| {
+                format!("disturbance: {a} line at {fhz:.2} Hz, incoherent power {strength:.1} x its neighbours")
+            });
+            if strength < DISTURBANCE_MIN_STRENGTH {
+                continue;
+            }
+            // least-squares amplitude on the absolute time base
+            let w = 2.0 * PI * fhz;
+            let (mut scc, mut sss, mut scs, mut syc, mut sys) = (0.0, 0.0, 0.0, 0.0, 0.0);
+            for (k, r) in res.iter().enumerate() {
+                let t = ts.t0 + k as f64 * ts.dt;
+                let (c, s) = ((w * t).cos(), (w * t).sin());
+                scc += c * c;
+                sss += s * s;
+                scs += c * s;
+                syc += r * c;
+                sys += r * s;
+            }
+            let det = scc * sss - scs * scs;
+            if det.abs() < 1e-300 {
+                continue;
+            }
+            let (ca, cb) = ((syc * sss - sys * scs) / det, (sys * scc - syc * scs) / det);
+            let amp_acc = if ts.response_kind == Some(ResponseKind::Acceleration) {
+                -1.0 / (w * w)
+            } else {
+                1.0
+            };
+            sines.push(Sinusoid {
+                freq_hz: fhz,
+                axis: a,
+                a: ca * amp_acc,
+                b: cb * amp_acc,
+            });
+            freqs_found.push(fhz);
+        }
+    }
+    if sines.is_empty() {
+        return None;
+    }
+    let strength = freqs_found
+        .iter()
+        .zip(&sines)
+        .map(|(f, sn)| {
+            incoherent
+                .as_ref()
+                .map_or(f64::INFINITY, |inc| inc.strength(sn.axis, *f))
+        })
+        .fold(f64::INFINITY, f64::min);
+    let mut ext = twin.clone();
+    ext.extensions.disturbance.extend(sines);
+    let mut d = Map::new();
+    freqs_found.sort_by(f64::total_cmp);
+    // one tone seen in several response axes is one frequency of the disturbance
+    freqs_found.dedup_by(|b, a| (*b - *a).abs() <= 2e-3 * *a);
+    d.insert("freq_hz".into(), json!(freqs_found));
+    if strength.is_finite() {
+        d.insert("incoherent_power_ratio".into(), json!(strength));
+    }
+    Some(Cand {
+        cause: Cause::Disturbance,
+        chi: f64::NAN,
+        twin: ext,
+        details: d,
+    })
+}

@@ -1,0 +1,528 @@
+//! Diagnosis: what the twin gets wrong on measured data, why, the extended twin, and the
+//! gain on held-out data (SPEC section 4).
+//!
+//! Method — hypothesis testing by model extension:
+//! 1. Every record is split in time: the first part builds the evidence and the
+//!    extensions, the rest (the last hits of an impact record, or the last 30 % of a
+//!    continuous one) is held out and only used to score.
+//! 2. FRF points are estimated from the building part (per-hit H1 for impact tests,
+//!    multi-input Welch H1 for continuous data) with their standard errors from coherence.
+//!    Continuous (milling) data: the standard error of each channel accounts for
+//!    correlated inputs (the cutting forces in x and y), and lines dominated by a periodic
+//!    force (tooth-passing and spindle harmonics, with their window leakage) are left
+//!    out — there the estimate is the FRF at the harmonic, not at the line. The twin's
+//!    own uncertainty (its misfit to the FRF it was identified from) is added to every
+//!    point. Their RMS misfit against the twin in standard errors (χ) tells whether the
+//!    twin explains the data within noise: χ below [`DiagnoseOptions::chi_none`] ⇒
+//!    `none`; data at several poses or clearly different force levels are judged per
+//!    group too.
+//! 3. Otherwise each cause proposes the extension it calls for, fitted to the building
+//!    part: retune the dominant changed mode (`mode_change`), add a mode at the largest
+//!    residual peak (`unmodeled_mode`), a constant delay from the phase (`time_delay`), the
+//!    missing cross channel (`cross_coupling`), sinusoids at residual peaks the forces do
+//!    not explain (`disturbance`). The cause whose extended twin wins most on the held-out
+//!    data, and explains the FRF evidence (χ falls), is named. A significant misfit none
+//!    of them explains is `unexplained`, with the band where it sits.
+//!
+//! With `MTWIN_DEBUG_DIAGNOSE` set, the evidence behind each decision (χ, the largest
+//! residuals, the modes' moves between force levels, the cubic search) goes to stderr.
+
+// One file per cause, each proposing its extension of the twin (`cand_*`), on the shared
+// evidence (`evidence`) and helpers (`candidate`): a new cause is one new file and its
+// call in `diagnose`.
+mod candidate;
+mod cross_coupling;
+mod disturbance;
+mod evidence;
+mod mode_change;
+mod nonlinearity;
+mod pose_dependence;
+mod time_delay;
+mod unmodeled_mode;
+
+pub use crate::signal::slice;
+pub use evidence::{
+    add_twin_uncertainty, evidence, holdout_fit, is_impact, points, split, twin_points, Evidence,
+    Split,
+};
+
+use crate::error::{Error, Result};
+use crate::interpolate::TwinEvaluator;
+use crate::modal_update::{chi, chi_local};
+use crate::timeseries::TimeSeries;
+use crate::twin::{now_unix, HistoryEntry, Twin};
+use num_complex::Complex64;
+use serde::{Deserialize, Serialize};
+use serde_json::{json, Map, Value};
+use std::sync::OnceLock;
+
+use candidate::Cand;
+use cross_coupling::cand_cross_coupling;
+use disturbance::{cand_disturbance, DISTURBANCE_PROVEN_STRENGTH};
+use evidence::{band_of, force_levels, incoherent_lines};
+use mode_change::cand_mode_change;
+use nonlinearity::cand_nonlinearity;
+use pose_dependence::cand_pose_dependence;
+use time_delay::cand_time_delay;
+use unmodeled_mode::cand_unmodeled_mode;
+
+/// Whether the tuning traces are on (`MTWIN_DEBUG_DIAGNOSE` set; read once).
+fn tracing() -> bool {
+    static ON: OnceLock<bool> = OnceLock::new();
+    *ON.get_or_init(|| std::env::var_os("MTWIN_DEBUG_DIAGNOSE").is_some())
+}
+
+/// A tuning trace on stderr when [`tracing`] (the evidence behind a decision).
+fn trace(msg: impl FnOnce() -> String) {
+    if tracing() {
+        eprintln!("{}", msg());
+    }
+}
+
+/// The SPEC's causes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Cause {
+    /// The twin explains the data within noise.
+    None,
+    /// A modelled mode's frequency and/or damping changed.
+    ModeChange,
+    /// A resonance the twin lacks.
+    UnmodeledMode,
+    /// Behaviour varies with axis position beyond the twin's poses.
+    PoseDependence,
+    /// Response not proportional to force.
+    Nonlinearity,
+    /// A constant delay between force and response.
+    TimeDelay,
+    /// Response in one axis to force in another that the twin lacks.
+    CrossCoupling,
+    /// Response not caused by the measured force.
+    Disturbance,
+    /// A significant misfit none of the above explains.
+    Unexplained,
+}
+
+/// Options of [`diagnose`].
+#[derive(Debug, Clone)]
+pub struct DiagnoseOptions {
+    /// Fraction of each continuous record held out (the end of it).
+    pub holdout_fraction: f64,
+    /// Lines below this coherence are not evidence.
+    pub min_coherence: f64,
+    /// χ (RMS misfit in standard errors) below which the twin is right within noise.
+    pub chi_none: f64,
+    /// Smallest held-out fit gain [percentage points] that counts as a real improvement.
+    pub min_gain_pct: f64,
+    /// Largest local misfit (RMS over ±2.5 % of frequency, in standard errors) that
+    /// still counts as noise (default 4).
+    pub chi_local: f64,
+}
+
+impl Default for DiagnoseOptions {
+    fn default() -> Self {
+        DiagnoseOptions {
+            holdout_fraction: 0.3,
+            min_coherence: 0.8,
+            chi_none: 3.0,
+            min_gain_pct: 0.5,
+            chi_local: 4.0,
+        }
+    }
+}
+
+/// One cause that was tried.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct CandidateScore {
+    /// The cause.
+    pub cause: Cause,
+    /// χ of the extended twin on the building part's FRF points.
+    pub chi: f64,
+    /// Held-out time fit of the extended twin \[%\].
+    pub fit_holdout_pct: f64,
+    /// The cause's numbers.
+    pub details: Map<String, Value>,
+}
+
+/// The diagnosis (`diagnosis.json`, SPEC section 4, plus evidence).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Diagnosis {
+    /// The named cause.
+    pub cause: Cause,
+    /// In words an operator understands.
+    pub summary: String,
+    /// Cause-specific numbers (SPEC table) and `holdout`.
+    pub details: Map<String, Value>,
+    /// Held-out fit of the original twin \[%\].
+    pub fit_before_pct: f64,
+    /// Held-out fit of the extended twin \[%\].
+    pub fit_after_pct: f64,
+    /// File name of the extended twin (in the output directory).
+    pub extended_twin: String,
+    /// χ of the original twin on the FRF evidence.
+    pub chi_before: f64,
+    /// Every cause tried, with its scores.
+    pub candidates: Vec<CandidateScore>,
+}
+
+fn summary_for(cause: Cause, d: &Map<String, Value>, before: f64, after: f64) -> String {
+    let num = |k: &str| d.get(k).and_then(Value::as_f64).unwrap_or(f64::NAN);
+    let txt = |k: &str| d.get(k).and_then(Value::as_str).unwrap_or("?").to_string();
+    let gain =
+        format!("The extended twin fits held-out data {after:.1} % instead of {before:.1} %.");
+    match cause {
+        Cause::None => format!("The twin explains this data within measurement noise (held-out fit {before:.1} %); nothing to change."),
+        Cause::ModeChange => format!(
+            "The {:.0} Hz mode in {} has moved to {:.1} Hz with {:.1} % damping (was {:.1} %): wear or loosening changed it. {gain}",
+            num("freq_hz"), txt("axis"), num("new_freq_hz"), 100.0 * num("new_damping"), 100.0 * num("damping")
+        ),
+        Cause::UnmodeledMode => format!(
+            "There is a resonance at {:.1} Hz ({:.1} % damping) in {} that the twin does not have — a new tool or holder? It was added. {gain}",
+            num("freq_hz"), 100.0 * num("damping"), txt("axis")
+        ),
+        Cause::TimeDelay => format!(
+            "The response lags the force by {:.1} µs more than the twin expects (a sensor or acquisition delay). {gain}",
+            1e6 * num("delay_s")
+        ),
+        Cause::CrossCoupling => format!(
+            "Force along one axis moves the tool along another (channel {}, strongest near {:.0} Hz), which the twin lacked. {gain}",
+            txt("channel"), num("freq_hz")
+        ),
+        Cause::Disturbance => format!(
+            "Vibration at {} Hz comes from outside the cut (not caused by the measured force). {gain}",
+            d.get("freq_hz")
+                .and_then(Value::as_array)
+                .map_or("?".into(), |v| v
+                    .iter()
+                    .filter_map(Value::as_f64)
+                    .map(|f| format!("{f:.1}"))
+                    .collect::<Vec<_>>()
+                    .join(", "))
+        ),
+        Cause::Unexplained => format!(
+            "The twin misses the data between {} Hz and none of the known causes explains it; re-measure there. Held-out fit {before:.1} %.",
+            d.get("band_hz").map_or("?".into(), |v| v.to_string())
+        ),
+        Cause::PoseDependence => format!(
+            "The machine's behaviour changes with the axis position more than the twin knows: \
+             the {:.0} Hz mode moves by {:+.1} % per metre along {}. The data's poses were added \
+             to the twin. {gain}",
+            num("freq_hz"),
+            num("freq_shift_pct_per_m"),
+            txt("axis_of_variation")
+        ),
+        Cause::Nonlinearity => format!(
+            "The {:.0} Hz mode is not linear: it sits at {:.1} Hz under light forces (light hits, \
+             shallow cuts) and at {:.1} Hz under heavy ones ({}). {} {gain}",
+            num("freq_hz"),
+            num("freq_low_force_hz"),
+            num("freq_high_force_hz"),
+            txt("kind"),
+            if d.contains_key("kappa") {
+                "A cubic stiffness term on that mode was added to the twin (mtwin simulate and \
+                 the FMU carry it), so the twin follows both force levels."
+            } else if d.contains_key("extension") {
+                "Neither a cubic stiffness term nor a retune helped on the held-out data, so \
+                 the twin was left as it was."
+            } else {
+                "The twin was retuned to the heavy-force behaviour (a linear twin cannot \
+                 follow both force levels)."
+            }
+        ),
+    }
+}
+
+/// Diagnoses `twin` on `records`. Returns the diagnosis and the extended twin.
+pub fn diagnose(
+    twin: &Twin,
+    records: &[TimeSeries],
+    opts: &DiagnoseOptions,
+) -> Result<(Diagnosis, Twin)> {
+    if records.is_empty() {
+        return Err(Error::BadInput("no data files given".into()));
+    }
+    let splits: Vec<Split> = records
+        .iter()
+        .map(|r| split(r, opts.holdout_fraction))
+        .collect();
+    let parts: Vec<TimeSeries> = splits
+        .iter()
+        .map(|s| slice(&s.full, 0, s.holdout_start))
+        .collect();
+    let ev = evidence(&parts)?;
+    let band = band_of(twin);
+    let mut pts = twin_points(&ev, twin, band, opts.min_coherence);
+    // tones from outside (continuous data): not the twin's business in the FRF evidence
+    // (computed once: the disturbance detector judges its residual lines by it too)
+    let incoherent = incoherent_lines(&parts);
+    let tones = match (&incoherent, ev.kind == "continuous") {
+        (Some(inc), true) => inc.tones(),
+        _ => Vec::new(),
+    };
+    if let Some(inc) = &incoherent {
+        trace(|| format!("diagnose: proven tones at {tones:.2?} Hz"));
+        inc.drop_tone_points(&mut pts, &tones);
+    }
+    let pose = {
+        let mut p = [0.0; 3];
+        let n: usize = parts.iter().map(TimeSeries::len).sum();
+        for r in &parts {
+            let m = r.mean_position();
+            for a in 0..3 {
+                p[a] += m[a] * r.len() as f64 / n.max(1) as f64;
+            }
+        }
+        p
+    };
+    add_twin_uncertainty(&mut pts, twin, pose);
+    let mut evl = TwinEvaluator::new(twin)?;
+    let model = evl.model_at(pose).clone();
+    let chi0 = chi(&model, &pts, twin.extensions.delay_s.unwrap_or(0.0));
+    let chi_loc = chi_local(&model, &pts, twin.extensions.delay_s.unwrap_or(0.0));
+    trace(|| {
+        format!(
+            "diagnose: {} evidence, {} averages, noise share {:.3}, {} points, chi {chi0:.2}, local {chi_loc:.2}",
+            ev.kind,
+            ev.n_avg,
+            ev.noise_share,
+            pts.iter().map(|p| p.h.len()).sum::<usize>()
+        )
+    });
+    if tracing() {
+        let mut worst: Vec<(f64, f64, String, f64)> = Vec::new();
+        for p in &pts {
+            let ci = model.channel_index(p.channel);
+            for ((f, h), sg) in p.freqs_hz.iter().zip(&p.h).zip(&p.sigma) {
+                let m = ci.map_or(Complex64::new(0.0, 0.0), |ci| model.eval_hz(ci, *f));
+                worst.push((
+                    ((m - h) / sg).norm(),
+                    *f,
+                    p.channel.name(),
+                    (m - h).norm() / h.norm(),
+                ));
+            }
+        }
+        worst.sort_by(|a, b| b.0.total_cmp(&a.0));
+        for w in worst.iter().take(8) {
+            eprintln!(
+                "  residual {:.1} sigma at {:.1} Hz {} (rel {:.3})",
+                w.0, w.1, w.2, w.3
+            );
+        }
+    }
+    // a misfit: globally (RMS) or in some band (a resonance is local)
+    let mut misfit = chi0 > opts.chi_none || chi_loc > opts.chi_local;
+    // data at several poses: judge each pose against the twin there too (pooling the
+    // poses' FRFs blurs a mode that moves with the pose into a broad, weak misfit)
+    let groups = crate::campaign::group_by_pose(&parts, 1e-3);
+    if groups.len() >= 2 {
+        for g in &groups {
+            let recs: Vec<TimeSeries> = g.records.iter().map(|&i| parts[i].clone()).collect();
+            let Ok(e) = evidence(&recs) else { continue };
+            let mut p = twin_points(&e, twin, band, opts.min_coherence);
+            if let Some(inc) = &incoherent {
+                inc.drop_tone_points(&mut p, &tones);
+            }
+            add_twin_uncertainty(&mut p, twin, g.pose);
+            let m = evl.model_at(g.pose).clone();
+            let delay = twin.extensions.delay_s.unwrap_or(0.0);
+            if chi(&m, &p, delay) > opts.chi_none || chi_local(&m, &p, delay) > opts.chi_local {
+                misfit = true;
+            }
+        }
+    }
+    // records at clearly different force levels: judge each level against the twin too
+    // (a mode that moves with the force blurs into a weak misfit when the levels pool)
+    let mut level_misfit = Vec::new();
+    for recs in force_levels(&parts) {
+        let Ok(e) = evidence(&recs) else { continue };
+        let mut p = twin_points(&e, twin, band, opts.min_coherence);
+        if let Some(inc) = &incoherent {
+            inc.drop_tone_points(&mut p, &tones);
+        }
+        add_twin_uncertainty(&mut p, twin, pose);
+        let delay = twin.extensions.delay_s.unwrap_or(0.0);
+        let m =
+            chi(&model, &p, delay) > opts.chi_none || chi_local(&model, &p, delay) > opts.chi_local;
+        misfit |= m;
+        level_misfit.push(m);
+    }
+    // the twin explains the light-force data within noise but not the hard-force data:
+    // no linear change of the twin can be the cause
+    let only_hard_misfits = level_misfit == [false, true];
+    let fit_before = holdout_fit(twin, &splits)?;
+    let holdout = format!(
+        "held out: {} (the last {} of each record, from t = {})",
+        if ev.kind == "impact" {
+            "the last hits"
+        } else {
+            "the end"
+        },
+        if ev.kind == "impact" {
+            "hits".to_string()
+        } else {
+            format!("{:.0} %", 100.0 * opts.holdout_fraction)
+        },
+        splits
+            .iter()
+            .map(|s| format!("{:.3} s", s.full.t0 + s.holdout_start as f64 * s.full.dt))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    let dt = records[0].dt;
+    let mut cands: Vec<Cand> = Vec::new();
+    if misfit {
+        cands.extend(cand_mode_change(twin, &model, &pts));
+        cands.extend(cand_unmodeled_mode(twin, &model, &pts));
+        cands.extend(cand_time_delay(twin, &model, &pts, dt));
+        cands.extend(cand_cross_coupling(twin, &model, &pts));
+        cands.extend(cand_pose_dependence(twin, &parts, band, opts.min_coherence));
+    }
+    // hits or records at clearly different force levels carry their own evidence (their
+    // FRFs disagree with each other), whether or not the pooled data misfit the twin:
+    // light and hard hits average into an FRF near the twin's
+    // (without a misfit, only a test at clearly different levels counts: hand-held
+    // hammer hits vary by 2-3x by themselves, and a few hits per level scatter the
+    // retuned modes by several per cent; a record at another depth of cut is a level)
+    let min_ratio = if misfit || ev.kind != "impact" {
+        2.0
+    } else {
+        4.0
+    };
+    cands.extend(cand_nonlinearity(
+        twin,
+        &parts,
+        band,
+        opts.min_coherence,
+        pose,
+        min_ratio,
+    ));
+    cands.extend(cand_disturbance(twin, &parts, incoherent.as_ref()));
+    let mut scores = Vec::new();
+    let mut best: Option<(usize, f64)> = None;
+    for (i, c) in cands.iter().enumerate() {
+        let fit = holdout_fit(&c.twin, &splits).unwrap_or(f64::NEG_INFINITY);
+        scores.push(CandidateScore {
+            cause: c.cause,
+            chi: c.chi,
+            fit_holdout_pct: fit,
+            details: c.details.clone(),
+        });
+        // a candidate must explain the FRF evidence too (χ falls by half) unless it is a
+        // disturbance (not in the FRF by definition)
+        // (pose dependence is judged per pose: its χ is not comparable with the pooled one)
+        let explains = matches!(
+            c.cause,
+            Cause::Disturbance | Cause::PoseDependence | Cause::Nonlinearity
+        ) || c.chi < 0.5 * chi0
+            || c.chi < opts.chi_none;
+        // a tone from outside is small in the response power (a few per cent of a
+        // milling record's acceleration): where the lines' incoherent power proves it
+        // (far beyond any noise scatter), any held-out gain confirms it
+        let proven_tone = c.cause == Cause::Disturbance
+            && c.details
+                .get("incoherent_power_ratio")
+                .and_then(Value::as_f64)
+                .is_some_and(|r| r >= DISTURBANCE_PROVEN_STRENGTH);
+        let need = if proven_tone { 0.0 } else { opts.min_gain_pct };
+        if explains && fit > fit_before + need && best.is_none_or(|b| fit > b.1) {
+            best = Some((i, fit));
+        }
+    }
+    // A mode that moves with the force level while the light-force data match the twin is
+    // a nonlinearity, even where a linear retune scores as well on the mixed held-out hits
+    // (a worn mode would have moved under light hits too).
+    if let Some((i, s)) = cands
+        .iter()
+        .enumerate()
+        .find_map(|(i, c)| (c.cause == Cause::Nonlinearity).then_some((i, &scores[i])))
+    {
+        let num = |k: &str| s.details.get(k).and_then(Value::as_f64).unwrap_or(f64::NAN);
+        let (f0, fl, fh) = (
+            num("freq_hz"),
+            num("freq_low_force_hz"),
+            num("freq_high_force_hz"),
+        );
+        let light_matches_twin = (fl - f0).abs() < 0.3 * (fh - fl).abs();
+        let close_to_best =
+            only_hard_misfits || best.is_none_or(|b| s.fit_holdout_pct >= b.1 - opts.min_gain_pct);
+        let best_is_linear_retune = best
+            .is_none_or(|b| matches!(cands[b.0].cause, Cause::ModeChange | Cause::UnmodeledMode));
+        if light_matches_twin && close_to_best && best_is_linear_retune {
+            best = Some((i, s.fit_holdout_pct));
+        }
+    }
+    let (cause, mut details, ext, fit_after) = match best {
+        // the linearised twin helps only when hard hits dominate the held-out data; else
+        // the twin stays as it was (a linear twin cannot follow both force levels)
+        Some((i, fit)) if cands[i].cause == Cause::Nonlinearity && fit <= fit_before => {
+            let mut d = cands[i].details.clone();
+            d.insert(
+                "extension".into(),
+                json!("none: neither a cubic modal stiffness nor the twin linearised at the heavy-force level fits the held-out data better"),
+            );
+            (Cause::Nonlinearity, d, twin.clone(), fit_before)
+        }
+        Some((i, fit)) => {
+            let c = &cands[i];
+            (c.cause, c.details.clone(), c.twin.clone(), fit)
+        }
+        None if !misfit => (Cause::None, Map::new(), twin.clone(), fit_before),
+        None => {
+            // where the misfit sits: the 10–90 % quantiles of χ² over frequency
+            let mut contrib: Vec<(f64, f64)> = Vec::new();
+            for p in &pts {
+                let ci = model.channel_index(p.channel);
+                for ((f, h), sg) in p.freqs_hz.iter().zip(&p.h).zip(&p.sigma) {
+                    let m = ci.map_or(Complex64::new(0.0, 0.0), |ci| model.eval_hz(ci, *f));
+                    contrib.push((*f, ((m - h) / sg).norm_sqr()));
+                }
+            }
+            contrib.sort_by(|a, b| a.0.total_cmp(&b.0));
+            let total: f64 = contrib.iter().map(|c| c.1).sum();
+            let mut acc = 0.0;
+            let (mut lo, mut hi) = (band.0, band.1);
+            let mut lo_set = false;
+            for (f, c) in &contrib {
+                acc += c;
+                if !lo_set && acc >= 0.1 * total {
+                    lo = *f;
+                    lo_set = true;
+                }
+                if acc >= 0.9 * total {
+                    hi = *f;
+                    break;
+                }
+            }
+            let mut d = Map::new();
+            d.insert("band_hz".into(), json!([lo, hi]));
+            (Cause::Unexplained, d, twin.clone(), fit_before)
+        }
+    };
+    details.insert("holdout".into(), json!(holdout));
+    let summary = summary_for(cause, &details, fit_before, fit_after);
+    let mut ext = ext;
+    if cause != Cause::None && cause != Cause::Unexplained {
+        ext.history.push(HistoryEntry {
+            unix_time: now_unix(),
+            kind: "extend".into(),
+            files: records.iter().map(|r| r.source.clone()).collect(),
+            summary: summary.clone(),
+            figures: details.clone(),
+            previous_poses: twin.poses.clone(),
+        });
+    }
+    Ok((
+        Diagnosis {
+            cause,
+            summary,
+            details,
+            fit_before_pct: fit_before,
+            fit_after_pct: fit_after,
+            extended_twin: "twin_extended.json".into(),
+            chi_before: chi0,
+            candidates: scores,
+        },
+        ext,
+    ))
+}

@@ -1,0 +1,256 @@
+//! Cause `nonlinearity`: a mode that moves with the force level; a cubic modal stiffness on
+//! it, or the twin linearised at the high force level.
+
+use super::candidate::{dominant_axis, map_models, retune, Cand};
+use super::evidence::{evidence, force_mag, holdout_fit, level_units, twin_points, Split};
+use super::{trace, Cause};
+use crate::interpolate::TwinEvaluator;
+use crate::modal_update::Points;
+use crate::model::ModalModel;
+use crate::simulate::{force_rows, Hold};
+use crate::timeseries::TimeSeries;
+use crate::twin::Twin;
+use serde_json::{json, Map};
+
+/// Records at clearly different force levels (peak force ratio ≥ 2): each mode's
+/// frequency and damping refitted on the low-force and on the high-force records; the mode
+/// that moves most with the force level names the nonlinearity (frequency up = hardening,
+/// down = softening, damping down with little frequency change = friction). The extension
+/// is a cubic modal stiffness on that mode ([`fit_cubic`]; `simulate` and the FMU carry
+/// it) when it explains both force levels better than the linear twin, else (and for
+/// friction) the twin linearised at the high force level.
+pub(super) fn cand_nonlinearity(
+    twin: &Twin,
+    parts: &[TimeSeries],
+    band: (f64, f64),
+    min_coh: f64,
+    pose: [f64; 3],
+    min_ratio: f64,
+) -> Option<Cand> {
+    let parts = &level_units(parts);
+    let peak = |ts: &TimeSeries| force_mag(ts).iter().fold(0.0f64, |a, v| a.max(*v));
+    let peaks: Vec<f64> = parts.iter().map(peak).collect();
+    let (lo, hi) = peaks
+        .iter()
+        .fold((f64::INFINITY, 0.0f64), |(a, b), p| (a.min(*p), b.max(*p)));
+    if !(lo > 0.0 && hi >= min_ratio * lo) {
+        return None;
+    }
+    trace(|| format!("nonlinearity: force peaks {lo:.1}..{hi:.1} N"));
+    let split = (lo * hi).sqrt();
+    let group = |high: bool| -> Vec<TimeSeries> {
+        parts
+            .iter()
+            .zip(&peaks)
+            .filter(|(_, p)| (**p >= split) == high)
+            .map(|(t, _)| t.clone())
+            .collect()
+    };
+    let (low_recs, high_recs) = (group(false), group(true));
+    let mut evl = TwinEvaluator::new(twin).ok()?;
+    let m0 = evl.model_at(pose).clone();
+    let pts_of = |recs: &[TimeSeries]| -> Option<Vec<Points>> {
+        let e = evidence(recs).ok()?;
+        let p = twin_points(&e, twin, band, min_coh);
+        (!p.is_empty()).then_some(p)
+    };
+    let (pl, ph) = (pts_of(&low_recs)?, pts_of(&high_recs)?);
+    // per mode: relative frequency and damping change from light to hard hits
+    let mut moves: Vec<(usize, f64, f64, ModalModel, ModalModel)> = Vec::new();
+    for k in 0..m0.modes.len() {
+        let (Ok(a), Ok(b)) = (retune(&m0, k, &pl), retune(&m0, k, &ph)) else {
+            continue;
+        };
+        let df = b.model.modes[k].wn / a.model.modes[k].wn - 1.0;
+        let dz = b.model.modes[k].zeta / a.model.modes[k].zeta - 1.0;
+        // a retune that jumps to another resonance or smears a mode out (a weak mode of
+        // the other axis, a close pair) is no move of this mode
+        let moved_off = |m: &ModalModel| {
+            let r = m.modes[k].wn / m0.modes[k].wn;
+            let z = m.modes[k].zeta / m0.modes[k].zeta;
+            !(0.8..=1.25).contains(&r) || !(0.25..=4.0).contains(&z)
+        };
+        if moved_off(&a.model) || moved_off(&b.model) {
+            trace(|| format!("nonlinearity: mode {k}: retune left the mode (not a move)"));
+            continue;
+        }
+        moves.push((k, df, dz, a.model, b.model));
+    }
+    for (k, df, dz, _, _) in &moves {
+        trace(|| {
+            format!(
+                "nonlinearity: mode {k}: frequency {:+.3} %, damping {:+.1} %",
+                100.0 * df,
+                100.0 * dz
+            )
+        });
+    }
+    // the scatter of the frequency moves: most modes are linear, their moves are noise
+    let med_df = {
+        let mut v: Vec<f64> = moves.iter().map(|m| m.1.abs()).collect();
+        v.sort_by(f64::total_cmp);
+        v.get(v.len() / 2).copied().unwrap_or(0.0)
+    };
+    // the mode whose FREQUENCY moves most (≥ 0.5 %, or ≥ 0.15 % and 10× the median move of
+    // all modes: well above their scatter); a neighbour it pushes changes its
+    // damping more than its frequency. Without a frequency move, a damping drop ≥ 20 %
+    // under hard hits is friction.
+    let by_f = moves
+        .iter()
+        .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
+        .filter(|m| m.1.abs() >= 0.005 || (m.1.abs() >= 0.0015 && m.1.abs() >= 10.0 * med_df));
+    let by_z = || {
+        moves
+            .iter()
+            .filter(|m| m.2 <= -0.2)
+            .min_by(|a, b| a.2.total_cmp(&b.2))
+    };
+    let (k, score, low, high) = match by_f.or_else(by_z) {
+        Some((k, df, dz, a, b)) => (*k, df.abs().max(0.1 * dz.abs()), a.clone(), b.clone()),
+        None => return None,
+    };
+    trace(|| {
+        format!(
+            "nonlinearity: mode {k} score {score:.4}: {:.2} -> {:.2} Hz",
+            low.modes[k].freq_hz(),
+            high.modes[k].freq_hz()
+        )
+    });
+    let df = high.modes[k].wn / low.modes[k].wn - 1.0;
+    let dz = high.modes[k].zeta / low.modes[k].zeta - 1.0;
+    let kind = if df.abs() >= 0.002 {
+        if df > 0.0 {
+            "hardening"
+        } else {
+            "softening"
+        }
+    } else if dz < 0.0 {
+        "friction"
+    } else {
+        "softening"
+    };
+    let mut d = Map::new();
+    // the extension: a cubic modal stiffness when it explains both force levels better than
+    // the linear twin does, else the twin linearised at the high force level
+    let cubic = if kind == "friction" {
+        None
+    } else {
+        fit_cubic(twin, &m0, k, df, &high_recs, parts)
+    };
+    let ext = match cubic {
+        Some((t, kappa, fit_lin, fit_cubic)) => {
+            d.insert("kappa".into(), json!(kappa));
+            d.insert(
+                "extension".into(),
+                json!(format!(
+                    "cubic modal stiffness on mode {k}: q'' + 2 zeta w q' + w^2 q (1 + kappa q^2) = F, \
+                     kappa = {kappa:.4e} (in mtwin simulate and the FMU); build-data fit {fit_lin:.2} % -> {fit_cubic:.2} %"
+                )),
+            );
+            t
+        }
+        None => map_models(twin, |m| {
+            let mut m = m.clone();
+            crate::modal_update::apply_change(&mut m, &m0, &high, 1.0);
+            m
+        }),
+    };
+    d.insert("freq_hz".into(), json!(m0.modes[k].freq_hz()));
+    d.insert("kind".into(), json!(kind));
+    d.insert("mode".into(), json!(k));
+    d.insert("freq_low_force_hz".into(), json!(low.modes[k].freq_hz()));
+    d.insert("freq_high_force_hz".into(), json!(high.modes[k].freq_hz()));
+    d.insert("damping_low_force".into(), json!(low.modes[k].zeta));
+    d.insert("damping_high_force".into(), json!(high.modes[k].zeta));
+    d.insert("force_split_n".into(), json!(split));
+    d.insert("axis".into(), json!(dominant_axis(&m0, k).to_string()));
+    Some(Cand {
+        cause: Cause::Nonlinearity,
+        chi: f64::NAN,
+        twin: ext,
+        details: d,
+    })
+}
+
+/// Cubic modal stiffness κ on mode `k` (sign from the frequency move `df` under hard
+/// hits): started from the backbone `ω_eff² = ω² (1 + ¾ κ A²)` at the largest modal
+/// amplitude `A` the hard records reach, then a golden-section search over κ (κ0/3 to
+/// 100 κ0) for the best time fit on all build records (light and hard). Returns the
+/// extended twin, κ and the build fits of the linear and the cubic twin, when the cubic
+/// term gains.
+fn fit_cubic(
+    twin: &Twin,
+    m0: &ModalModel,
+    k: usize,
+    df: f64,
+    high: &[TimeSeries],
+    build: &[TimeSeries],
+) -> Option<(Twin, f64, f64, f64)> {
+    use crate::simulate::Simulator;
+    // largest modal amplitude of mode k under the hard hits (linear simulation)
+    let mut amp: f64 = 0.0;
+    for ts in high {
+        let f = force_rows(ts);
+        let mut sim = Simulator::new(m0.modes.len(), Hold::Foh);
+        for i in 1..f.len() {
+            sim.step(m0, &f[i - 1], &f[i], ts.dt);
+            for j in 0..3 {
+                amp = amp.max(sim.state()[k * 3 + j][0].abs());
+            }
+        }
+    }
+    if !(amp > 0.0 && amp.is_finite()) {
+        return None;
+    }
+    let kappa0 = ((1.0 + df).powi(2) - 1.0) / (0.75 * amp * amp);
+    if !kappa0.is_finite() || kappa0 == 0.0 {
+        return None;
+    }
+    let splits: Vec<Split> = build
+        .iter()
+        .map(|t| Split {
+            full: t.clone(),
+            holdout_start: 0,
+        })
+        .collect();
+    let with = |kappa: f64| {
+        let mut t = twin.clone();
+        t.extensions.cubic.retain(|c| c.mode != k);
+        t.extensions
+            .cubic
+            .push(crate::twin::CubicStiffness { mode: k, kappa });
+        t
+    };
+    let fit_of =
+        |x: f64| holdout_fit(&with(kappa0 * x.exp()), &splits).unwrap_or(f64::NEG_INFINITY);
+    let fit_lin = holdout_fit(twin, &splits).ok()?;
+    // golden section on ln(κ/κ0) in [−ln 3, ln 100]: the measured shift averages the
+    // decaying amplitude of the hits while A is their largest, so κ0 is low
+    let g = 0.5 * (5f64.sqrt() - 1.0);
+    let (mut a, mut b) = (-(3f64.ln()), 100f64.ln());
+    let (mut c, mut e) = (b - g * (b - a), a + g * (b - a));
+    let (mut fc, mut fe) = (fit_of(c), fit_of(e));
+    for _ in 0..16 {
+        if fc > fe {
+            b = e;
+            e = c;
+            fe = fc;
+            c = b - g * (b - a);
+            fc = fit_of(c);
+        } else {
+            a = c;
+            c = e;
+            fc = fe;
+            e = a + g * (b - a);
+            fe = fit_of(e);
+        }
+    }
+    let (x, best) = if fc > fe { (c, fc) } else { (e, fe) };
+    trace(|| {
+        format!(
+            "nonlinearity: cubic on mode {k}: amplitude {amp:.3e}, kappa0 {kappa0:.3e}, best x {:.3} -> fit {fit_lin:.2} -> {best:.2} %",
+            x.exp()
+        )
+    });
+    (best > fit_lin).then(|| (with(kappa0 * x.exp()), kappa0 * x.exp(), fit_lin, best))
+}

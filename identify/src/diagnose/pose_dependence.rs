@@ -1,0 +1,173 @@
+//! Cause `pose_dependence`: modes that move with the axis position more than the twin's
+//! interpolation says.
+
+use super::candidate::{near_points, retune, Cand};
+use super::evidence::{evidence, twin_points};
+use super::Cause;
+use crate::interpolate::TwinEvaluator;
+use crate::modal_update::{chi, update_modes, Prior};
+use crate::model::ModalModel;
+use crate::timeseries::TimeSeries;
+use crate::twin::Twin;
+use serde_json::{json, Map};
+
+/// Data at several poses whose modes move with the pose more than the twin's
+/// interpolation says: per pose, each mode's frequency refitted alone (as in
+/// [`super::mode_change::cand_mode_change`]); the mode whose shift varies most across the
+/// poses and the axis along which it varies (least-squares slope of the relative shift over
+/// each axis's spread). The extension adds every data pose to the twin with its updated
+/// model.
+pub(super) fn cand_pose_dependence(
+    twin: &Twin,
+    parts: &[TimeSeries],
+    band: (f64, f64),
+    min_coh: f64,
+) -> Option<Cand> {
+    let groups = crate::campaign::group_by_pose(parts, 1e-3);
+    if groups.len() < 2 {
+        return None;
+    }
+    let mut evl = TwinEvaluator::new(twin).ok()?;
+    // per pose: (pose, twin model there, points, frf evidence, sources)
+    let mut per = Vec::new();
+    for g in &groups {
+        let recs: Vec<TimeSeries> = g.records.iter().map(|&i| parts[i].clone()).collect();
+        let ev = evidence(&recs).ok()?;
+        let pts = twin_points(&ev, twin, band, min_coh);
+        if pts.is_empty() {
+            return None;
+        }
+        let m0 = evl.model_at(g.pose).clone();
+        per.push((g.pose, m0, pts, ev, recs));
+    }
+    let n_modes = per[0].1.modes.len();
+    // relative frequency shift of mode k at each pose, with the updated models
+    let mut best: Option<(f64, usize, Vec<f64>, Vec<ModalModel>)> = None;
+    for k in 0..n_modes {
+        let mut shifts = Vec::new();
+        let mut models = Vec::new();
+        for (_, m0, pts, _, _) in &per {
+            let r = retune(m0, k, pts).ok()?;
+            // a shift only counts where the refit explains the data around the mode
+            // better (when every mode moves with the pose, one mode's retune hardly
+            // changes the χ of the whole band) and stays a shift (< 30 %), not a jump to
+            // another resonance
+            let (f0, f1) = (m0.modes[k].freq_hz(), r.model.modes[k].freq_hz());
+            let near = near_points(pts, 0.9 * f0.min(f1), 1.1 * f0.max(f1));
+            let shift = f1 / f0 - 1.0;
+            if shift.abs() >= 0.3 || chi(&r.model, &near, 0.0) > 0.9 * chi(m0, &near, 0.0) {
+                shifts.push(0.0);
+                models.push(m0.clone());
+                continue;
+            }
+            shifts.push(r.model.modes[k].wn / m0.modes[k].wn - 1.0);
+            models.push(r.model);
+        }
+        let mean = shifts.iter().sum::<f64>() / shifts.len() as f64;
+        let spread = shifts.iter().map(|s| (s - mean).abs()).fold(0.0, f64::max);
+        if best.as_ref().is_none_or(|b| spread > b.0) {
+            best = Some((spread, k, shifts, models));
+        }
+    }
+    let (spread, k, shifts, _) = best?;
+    // the extension's model at each pose: every mode refitted there (not only the one
+    // that moves most: the others move with the pose too)
+    let all: Vec<usize> = (0..n_modes).collect();
+    let models: Vec<ModalModel> = per
+        .iter()
+        .map(|(_, m0, pts, _, _)| {
+            update_modes(m0, &all, pts, Prior::default(), 60)
+                .map(|r| r.model)
+                .unwrap_or_else(|_| m0.clone())
+        })
+        .collect();
+    // at least 0.5 % of frequency variation across the poses
+    if spread < 0.005 {
+        return None;
+    }
+    // slope of the shift along each axis (simple regressions), pick the largest effect
+    let n = per.len() as f64;
+    let mut axis_best: Option<(f64, usize, f64)> = None;
+    for a in 0..3 {
+        let xm = per.iter().map(|p| p.0[a]).sum::<f64>() / n;
+        let sm = shifts.iter().sum::<f64>() / n;
+        let sxx: f64 = per.iter().map(|p| (p.0[a] - xm).powi(2)).sum();
+        if sxx < 1e-10 {
+            continue;
+        }
+        let sxy: f64 = per
+            .iter()
+            .zip(&shifts)
+            .map(|(p, s)| (p.0[a] - xm) * (s - sm))
+            .sum();
+        let slope = sxy / sxx;
+        let effect = slope.abs() * (sxx / n).sqrt();
+        if axis_best.as_ref().is_none_or(|b| effect > b.0) {
+            axis_best = Some((effect, a, slope));
+        }
+    }
+    let (_, a, slope) = axis_best?;
+    // the extension: every data pose becomes a measured pose of the twin
+    let mut ext = twin.clone();
+    let fitted_band = [band.0, band.1];
+    for ((pose, _, _, ev, recs), model) in per.iter().zip(models) {
+        let frf = crate::frf::Frf {
+            freqs_hz: ev.freqs_hz.clone(),
+            channels: ev
+                .channels
+                .iter()
+                .map(|(c, h, g)| crate::frf::FrfChannel {
+                    channel: *c,
+                    h: h.clone(),
+                    coherence: Some(g.clone()),
+                })
+                .collect(),
+        };
+        let fit = crate::campaign::channel_fits(&model, &frf, band);
+        let pm = crate::twin::PoseModel {
+            pose: *pose,
+            model,
+            frf,
+            band_hz: fitted_band,
+            fit,
+            order: crate::twin::OrderInfo {
+                modes: n_modes,
+                automatic: false,
+                stable_freqs_hz: Vec::new(),
+            },
+            sources: recs.iter().map(|r| r.source.clone()).collect(),
+            frf_exp_window_sigma: None,
+            plan: None,
+        };
+        let d = |q: &[f64; 3]| (0..3).map(|i| (q[i] - pose[i]).powi(2)).sum::<f64>().sqrt();
+        match ext.poses.iter().position(|p| d(&p.pose) <= 1e-3) {
+            Some(i) => ext.poses[i] = pm,
+            None => ext.poses.push(pm),
+        }
+    }
+    if ext.validate(std::path::Path::new("extended twin")).is_err()
+        || TwinEvaluator::new(&ext).is_err()
+    {
+        return None;
+    }
+    let f0 = per[0].1.modes[k].freq_hz();
+    let mut d = Map::new();
+    d.insert("axis_of_variation".into(), json!(["x", "y", "z"][a]));
+    d.insert("freq_shift_pct_per_m".into(), json!(100.0 * slope));
+    d.insert("freq_hz".into(), json!(f0));
+    d.insert("mode".into(), json!(k));
+    d.insert(
+        "shift_pct_per_pose".into(),
+        json!(per
+            .iter()
+            .zip(&shifts)
+            .map(|(p, s)| json!({"pose": p.0, "shift_pct": 100.0 * s}))
+            .collect::<Vec<_>>()),
+    );
+    Some(Cand {
+        cause: Cause::PoseDependence,
+        chi: f64::NAN,
+        twin: ext,
+        details: d,
+    })
+}

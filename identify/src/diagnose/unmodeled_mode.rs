@@ -1,0 +1,83 @@
+//! Cause `unmodeled_mode`: a mode added at the largest residual peak.
+
+use super::candidate::{map_models, Cand};
+use super::Cause;
+use crate::axis::Channel;
+use crate::modal_update::{chi, update_modes, Points, Prior};
+use crate::model::{ModalModel, Mode, ModeNum};
+use crate::twin::Twin;
+use num_complex::Complex64;
+use serde_json::{json, Map};
+use std::f64::consts::PI;
+
+pub(super) fn cand_unmodeled_mode(twin: &Twin, model: &ModalModel, pts: &[Points]) -> Option<Cand> {
+    // largest residual peak (in standard errors) over the channels the model has
+    let mut peak: Option<(f64, f64, Channel)> = None;
+    for p in pts {
+        let Some(ci) = model.channel_index(p.channel) else {
+            continue;
+        };
+        for ((f, h), sg) in p.freqs_hz.iter().zip(&p.h).zip(&p.sigma) {
+            let r = ((h - model.eval_hz(ci, *f)) / sg).norm();
+            if peak.is_none_or(|b| r > b.0) {
+                peak = Some((r, *f, p.channel));
+            }
+        }
+    }
+    let (_, f0, ch) = peak?;
+    let mut m = model.clone();
+    m.modes.push(Mode::from_hz(f0, 0.02));
+    let k = m.modes.len() - 1;
+    // initial numerators of the new mode from the residual at its peak: b0 ≈ |R| 2ζω² (quadrature)
+    for c in &mut m.channels {
+        let p = pts.iter().find(|p| p.channel == c.channel);
+        let r0 = p
+            .and_then(|p| {
+                let i = p.freqs_hz.iter().position(|f| *f == f0)?;
+                let ci = model.channel_index(c.channel)?;
+                Some(p.h[i] - model.eval_hz(ci, f0))
+            })
+            .unwrap_or(Complex64::new(0.0, 0.0));
+        let w = 2.0 * PI * f0;
+        // at resonance (b0)/(j 2ζω²) = R  ⇒ b0 = Re(R · j 2ζω²) = -Im(R)·2ζω²
+        c.num.push(ModeNum {
+            b0: -r0.im * 2.0 * 0.02 * w * w,
+            b1: 0.0,
+        });
+    }
+    let r = update_modes(
+        &m,
+        &[k],
+        pts,
+        Prior {
+            ln_wn: 0.05,
+            ln_zeta: 1.5,
+            num_rel: 10.0,
+        },
+        60,
+    )
+    .ok()?;
+    let new = r.model;
+    let nm = new.modes[k];
+    let ext = map_models(twin, |pm| {
+        let mut pm = pm.clone();
+        pm.modes.push(nm);
+        for c in &mut pm.channels {
+            let n = new
+                .channel(c.channel)
+                .map_or(ModeNum::default(), |nc| nc.num[k]);
+            c.num.push(n);
+        }
+        pm
+    });
+    let mut d = Map::new();
+    d.insert("freq_hz".into(), json!(nm.freq_hz()));
+    d.insert("damping".into(), json!(nm.zeta));
+    d.insert("axis".into(), json!(ch.output.to_string()));
+    Some(Cand {
+        cause: Cause::UnmodeledMode,
+        chi: chi(&new, pts, 0.0),
+        twin: ext,
+        details: d,
+    })
+}
