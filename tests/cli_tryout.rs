@@ -315,13 +315,22 @@ fn tryout_diagnosis_names_all_four_cases() {
                     && tdet.get("kind").is_none_or(|k| det["kind"] == *k)
             }
         };
-        eprintln!(
-            "{case}: {cause} (want {want}), held-out fit {:.2} -> {:.2} %, details {det}",
+        let (before, after) = (
             d["fit_before_pct"].as_f64().unwrap_or(f64::NAN),
-            d["fit_after_pct"].as_f64().unwrap_or(f64::NAN)
+            d["fit_after_pct"].as_f64().unwrap_or(f64::NAN),
         );
+        eprintln!("{case}: {cause} (want {want}), held-out fit {before:.2} -> {after:.2} %, details {det}");
         if cause != want || !numbers_right {
             wrong.push(format!("{case}: {cause} {det} (want {want} {tdet})"));
+        }
+        // the extension must pay off on held-out data where the effect is a sizeable
+        // part of the response (the hardening joint's 2.5 % shift of the 88 Hz mode is
+        // not: the linear twin already fits its held-out hit at 99.6 %)
+        if matches!(want, "mode_change" | "disturbance") && after - before <= 1.0 {
+            wrong.push(format!(
+                "{case}: held-out gain {:.2} points",
+                after - before
+            ));
         }
     }
     assert!(wrong.is_empty(), "{wrong:#?}");

@@ -53,7 +53,7 @@ use crate::axis::Channel;
 use crate::campaign::{channel_fits, channel_fits_as};
 use crate::error::{Error, Result};
 use crate::frf::{fit_percent_real, Frf};
-use crate::interpolate::{simulate_twin, TwinEvaluator};
+use crate::interpolate::TwinEvaluator;
 use crate::modal_update::{
     apply_change, chi, discrepancy, update_modes_with, with_discrepancy, ModeBounds, Points, Prior,
     UpdateOptions, UpdateResult,
@@ -199,13 +199,20 @@ pub struct HeldOut {
 /// One response axis: the axis, the measured and the simulated samples.
 pub type AxisTrace = (Axis, Vec<f64>, Vec<f64>);
 
-/// Simulated response of a twin for a record, in the record's response quantity, per
-/// response axis present in both (FOH: the force is linear between samples).
+/// Simulated response of a twin (with its extensions) for a record, in the record's
+/// response quantity, per response axis present in both (the band-limited hold of a
+/// measured record, [`Hold::BandLimited`]).
 pub fn simulate_record(twin: &Twin, ts: &TimeSeries) -> Result<Vec<AxisTrace>> {
-    let mut ev = TwinEvaluator::new(twin)?;
     let forces = force_rows(ts);
-    let y = simulate_twin(&mut ev, &forces, |i| ts.position_at(i), ts.dt, Hold::Foh);
-    let outs: Vec<Axis> = ev.channels().iter().map(|c| c.output).collect();
+    let y = crate::extended::simulate_extended(
+        twin,
+        &forces,
+        |i| ts.position_at(i),
+        ts.t0,
+        ts.dt,
+        Hold::BandLimited,
+    )?;
+    let outs: Vec<Axis> = twin.channels.iter().map(|c| c.output).collect();
     let mut res = Vec::new();
     for a in Axis::ALL {
         let Some(meas) = ts.response(a) else { continue };

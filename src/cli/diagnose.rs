@@ -93,8 +93,22 @@ fn report(
     let ts = &series[0];
     let sp = split(ts, opts.holdout_fraction);
     let f = force_rows(ts);
-    let y0 = simulate_extended(twin, &f, |i| ts.position_at(i), ts.t0, ts.dt, Hold::Foh)?;
-    let y1 = simulate_extended(ext, &f, |i| ts.position_at(i), ts.t0, ts.dt, Hold::Foh)?;
+    let y0 = simulate_extended(
+        twin,
+        &f,
+        |i| ts.position_at(i),
+        ts.t0,
+        ts.dt,
+        Hold::BandLimited,
+    )?;
+    let y1 = simulate_extended(
+        ext,
+        &f,
+        |i| ts.position_at(i),
+        ts.t0,
+        ts.dt,
+        Hold::BandLimited,
+    )?;
     let a = sp.holdout_start;
     let b = (a + 4000).min(ts.len());
     let t: Vec<f64> = (a..b).map(|i| ts.t0 + i as f64 * ts.dt).collect();

@@ -84,7 +84,15 @@ pub(super) fn cand_disturbance(
 ) -> Option<Cand> {
     let ts = parts.iter().max_by_key(|p| p.len())?;
     let f = force_rows(ts);
-    let y = simulate_extended(twin, &f, |i| ts.position_at(i), ts.t0, ts.dt, Hold::Foh).ok()?;
+    let y = simulate_extended(
+        twin,
+        &f,
+        |i| ts.position_at(i),
+        ts.t0,
+        ts.dt,
+        Hold::BandLimited,
+    )
+    .ok()?;
     let n = ts.len();
     let nfft = n.next_power_of_two();
     let fft = FftPlanner::<f64>::new().plan_fft_forward(nfft);

@@ -479,11 +479,28 @@ pub fn holdout_fit(twin: &Twin, splits: &[Split]) -> Result<f64> {
     for s in splits {
         let ts = &s.full;
         let f = force_rows(ts);
-        let y = simulate_extended(twin, &f, |i| ts.position_at(i), ts.t0, ts.dt, Hold::Foh)?;
+        let y = simulate_extended(
+            twin,
+            &f,
+            |i| ts.position_at(i),
+            ts.t0,
+            ts.dt,
+            Hold::BandLimited,
+        )?;
         // every measured response axis counts, also one the twin does not model (then
-        // its prediction is 0: a missing cross channel shows)
+        // its prediction is 0: a missing cross channel shows) -- unless a force the twin
+        // knows nothing of acts too (the z force in milling, when only x and y were hit):
+        // then such an axis' response is not the twin's to predict
+        let unknown_force = known_inputs(twin).is_some_and(|known| {
+            Axis::ALL.iter().any(|a| {
+                !known.contains(a) && ts.force(*a).is_some_and(|f| f.iter().any(|v| *v != 0.0))
+            })
+        });
         for a in Axis::ALL {
             let Some(m) = ts.response(a) else { continue };
+            if unknown_force && !twin.channels.iter().any(|c| c.output == a) {
+                continue;
+            }
             let mut yy: Vec<f64> = y.iter().map(|r| r[a.index()]).collect();
             if ts.response_kind == Some(ResponseKind::Acceleration) {
                 yy = second_derivative(&yy, ts.dt);
