@@ -879,6 +879,10 @@ fn fit_pose(
         Error::Numerical(msg) => Error::Numerical(format!("pose {pose:?}: {msg}")),
         other => other,
     })?;
+    let debug = std::env::var_os("MTWIN_DEBUG_FIT").is_some();
+    if debug {
+        eprintln!("pose {pose:?}, first fit:\n{}", best.report);
+    }
     let mut best_score = score(&best);
     let mut best_name = name(options);
     let mut best_options = options.clone();
@@ -947,6 +951,9 @@ fn fit_pose(
         match fit_frf(frf, cand) {
             Ok(alt) => {
                 let s = score(&alt);
+                if debug {
+                    eprintln!("pose {pose:?}, {}:\n{}", name(cand), alt.report);
+                }
 
                 // a forced higher order must earn its modes: one point of mean fit
                 let gain = if cand.n_modes.is_some() && options.n_modes.is_none() {
