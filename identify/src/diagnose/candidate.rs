@@ -89,6 +89,9 @@ pub(super) struct Cand {
     pub(super) twin: Twin,
     pub(super) chi: f64,
     pub(super) details: Map<String, Value>,
+    /// When not empty: the twin to judge each record's held-out part with (one per
+    /// record, in order), e.g. a disturbance's tones fitted per record.
+    pub(super) per_record: Vec<Twin>,
 }
 
 /// Mode `k` of `model` alone refitted to `pts` (frequency may move up to ~30 %).

@@ -61,5 +61,6 @@ pub(super) fn cand_cross_coupling(twin: &Twin, model: &ModalModel, pts: &[Points
         chi: chi(&m, pts, 0.0),
         twin: ext,
         details: d,
+        per_record: Vec::new(),
     })
 }

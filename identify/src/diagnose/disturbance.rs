@@ -180,33 +180,14 @@ pub(super) fn cand_disturbance(
             if strength < DISTURBANCE_MIN_STRENGTH {
                 continue;
             }
-            // least-squares amplitude on the absolute time base
-            let w = 2.0 * PI * fhz;
-            let (mut scc, mut sss, mut scs, mut syc, mut sys) = (0.0, 0.0, 0.0, 0.0, 0.0);
-            for (k, r) in res.iter().enumerate() {
-                let t = ts.t0 + k as f64 * ts.dt;
-                let (c, s) = ((w * t).cos(), (w * t).sin());
-                scc += c * c;
-                sss += s * s;
-                scs += c * s;
-                syc += r * c;
-                sys += r * s;
-            }
-            let det = scc * sss - scs * scs;
-            if det.abs() < 1e-300 {
+            let Some((ca, cb)) = tone(&res, ts, fhz) else {
                 continue;
-            }
-            let (ca, cb) = ((syc * sss - sys * scs) / det, (sys * scc - syc * scs) / det);
-            let amp_acc = if ts.response_kind == Some(ResponseKind::Acceleration) {
-                -1.0 / (w * w)
-            } else {
-                1.0
             };
             sines.push(Sinusoid {
                 freq_hz: fhz,
                 axis: a,
-                a: ca * amp_acc,
-                b: cb * amp_acc,
+                a: ca,
+                b: cb,
             });
             freqs_found.push(fhz);
         }
@@ -223,6 +204,24 @@ pub(super) fn cand_disturbance(
                 .map_or(f64::INFINITY, |inc| inc.strength(sn.axis, *f))
         })
         .fold(f64::INFINITY, f64::min);
+    // the held-out check: a vibration from outside keeps its frequencies but not its
+    // phase from one record to the next (each record starts at its own time): each
+    // record's held-out part is predicted with the tones fitted to its own building part
+    let per_record: Vec<Twin> = parts
+        .iter()
+        .map(|p| {
+            let mut t = twin.clone();
+            if let Some(res) = residuals(twin, p) {
+                for sn in &sines {
+                    let r = res.iter().find(|(a, _)| *a == sn.axis);
+                    if let Some((a, b)) = r.and_then(|(_, r)| tone(r, p, sn.freq_hz)) {
+                        t.extensions.disturbance.push(Sinusoid { a, b, ..*sn });
+                    }
+                }
+            }
+            t
+        })
+        .collect();
     let mut ext = twin.clone();
     ext.extensions.disturbance.extend(sines);
     let mut d = Map::new();
@@ -233,10 +232,70 @@ pub(super) fn cand_disturbance(
     if strength.is_finite() {
         d.insert("incoherent_power_ratio".into(), json!(strength));
     }
+    d.insert(
+        "tones_held_out".into(),
+        json!("each record's held-out part predicted with amplitude and phase fitted to its own building part (an outside vibration keeps its frequencies, not its phase, from one record to the next); the extended twin carries those of the longest record"),
+    );
     Some(Cand {
         cause: Cause::Disturbance,
         chi: f64::NAN,
         twin: ext,
         details: d,
+        per_record,
     })
+}
+
+/// The response of `ts` less `twin`'s simulation of it, per response axis, in the
+/// record's response quantity.
+fn residuals(twin: &Twin, ts: &TimeSeries) -> Option<Vec<(Axis, Vec<f64>)>> {
+    let f = force_rows(ts);
+    let y = simulate_extended(
+        twin,
+        &f,
+        |i| ts.position_at(i),
+        ts.t0,
+        ts.dt,
+        Hold::BandLimited,
+    )
+    .ok()?;
+    Some(
+        Axis::ALL
+            .iter()
+            .filter_map(|&a| {
+                let m = ts.response(a)?;
+                let mut sim: Vec<f64> = y.iter().map(|r| r[a.index()]).collect();
+                if ts.response_kind == Some(ResponseKind::Acceleration) {
+                    sim = second_derivative(&sim, ts.dt);
+                }
+                Some((a, m.iter().zip(&sim).map(|(a, b)| a - b).collect()))
+            })
+            .collect(),
+    )
+}
+
+/// Least-squares amplitude `(a, b)` of `a cos ωt + b sin ωt` at `fhz` in the residual
+/// `res` of `ts`, on the absolute time base, as a displacement (the twin's output).
+fn tone(res: &[f64], ts: &TimeSeries, fhz: f64) -> Option<(f64, f64)> {
+    let w = 2.0 * PI * fhz;
+    let (mut scc, mut sss, mut scs, mut syc, mut sys) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    for (k, r) in res.iter().enumerate() {
+        let t = ts.t0 + k as f64 * ts.dt;
+        let (c, s) = ((w * t).cos(), (w * t).sin());
+        scc += c * c;
+        sss += s * s;
+        scs += c * s;
+        syc += r * c;
+        sys += r * s;
+    }
+    let det = scc * sss - scs * scs;
+    if det.abs() < 1e-300 {
+        return None;
+    }
+    let (ca, cb) = ((syc * sss - sys * scs) / det, (sys * scc - syc * scs) / det);
+    let scale = if ts.response_kind == Some(ResponseKind::Acceleration) {
+        -1.0 / (w * w)
+    } else {
+        1.0
+    };
+    Some((ca * scale, cb * scale))
 }

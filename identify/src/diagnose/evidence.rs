@@ -474,9 +474,19 @@ pub(super) fn band_of(twin: &Twin) -> (f64, f64) {
 
 /// Held-out time fit \[%\] of `twin` on the splits (all response axes pooled).
 pub fn holdout_fit(twin: &Twin, splits: &[Split]) -> Result<f64> {
+    holdout_fit_each(|_| twin, splits)
+}
+
+/// [`holdout_fit`] with the twin `twin_of(i)` for split `i` (e.g. tones whose phase
+/// was fitted per record).
+pub(super) fn holdout_fit_each<'a>(
+    twin_of: impl Fn(usize) -> &'a Twin,
+    splits: &[Split],
+) -> Result<f64> {
     let mut meas = Vec::new();
     let mut sim = Vec::new();
-    for s in splits {
+    for (i, s) in splits.iter().enumerate() {
+        let twin = twin_of(i);
         let ts = &s.full;
         let f = force_rows(ts);
         let y = simulate_extended(

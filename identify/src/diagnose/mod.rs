@@ -51,6 +51,7 @@ use crate::interpolate::TwinEvaluator;
 use crate::modal_update::{chi, chi_local};
 use crate::timeseries::TimeSeries;
 use crate::twin::{now_unix, HistoryEntry, Twin};
+use evidence::holdout_fit_each;
 use num_complex::Complex64;
 use serde::{Deserialize, Serialize};
 use serde_json::{json, Map, Value};
@@ -401,7 +402,12 @@ pub fn diagnose(
     let mut scores = Vec::new();
     let mut best: Option<(usize, f64)> = None;
     for (i, c) in cands.iter().enumerate() {
-        let fit = holdout_fit(&c.twin, &splits).unwrap_or(f64::NEG_INFINITY);
+        let fit = if c.per_record.len() == splits.len() {
+            holdout_fit_each(|i| &c.per_record[i], &splits)
+        } else {
+            holdout_fit(&c.twin, &splits)
+        }
+        .unwrap_or(f64::NEG_INFINITY);
         scores.push(CandidateScore {
             cause: c.cause,
             chi: c.chi,

@@ -37,5 +37,6 @@ pub(super) fn cand_mode_change(twin: &Twin, model: &ModalModel, pts: &[Points]) 
         twin: ext,
         chi: c,
         details: d,
+        per_record: Vec::new(),
     })
 }

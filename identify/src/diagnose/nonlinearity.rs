@@ -169,6 +169,7 @@ pub(super) fn cand_nonlinearity(
         chi: f64::NAN,
         twin: ext,
         details: d,
+        per_record: Vec::new(),
     })
 }
 

@@ -169,5 +169,6 @@ pub(super) fn cand_pose_dependence(
         chi: f64::NAN,
         twin: ext,
         details: d,
+        per_record: Vec::new(),
     })
 }

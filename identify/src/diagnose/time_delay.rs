@@ -43,5 +43,6 @@ pub(super) fn cand_time_delay(
         chi: f(tau),
         twin: ext,
         details: d,
+        per_record: Vec::new(),
     })
 }

@@ -79,5 +79,6 @@ pub(super) fn cand_unmodeled_mode(twin: &Twin, model: &ModalModel, pts: &[Points
         chi: chi(&new, pts, 0.0),
         twin: ext,
         details: d,
+        per_record: Vec::new(),
     })
 }

@@ -1,0 +1,127 @@
+#!/usr/bin/env python3
+"""Confusion table of `mtwin diagnose` on the second generator (`lumped`).
+
+For each seed: `lumped`'s `cases` example writes a healthy impact test at the centre and
+one folder per hidden effect (parameters drawn from the seed) with the SPEC section 4
+answer; `mtwin identify` makes a one-pose twin from the healthy impacts with default
+options; `mtwin diagnose` runs on every folder with default options. Rows = the effect
+hidden, columns = the cause found; "numbers right" as in the vmachine table
+(`examples/diagnose_confusion.rs`): frequencies within 1 % (2 % for the nonlinear mode),
+delay within 10 %, the pose-dependence rate within 20 % or 5 %/m, the right
+channel/axis of variation/kind; every true disturbance frequency found within 1 %.
+
+    python3 bench/confusion_lumped.py [SEEDS] [--random-machine]   (default 5 seeds)
+
+Builds what it needs (`cargo build --release`), works in a temporary folder, prints a
+Markdown table; `-v` prints every miss.
+"""
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+MTWIN = os.path.join(ROOT, "target", "release", "mtwin")
+CASES = os.path.join(ROOT, "target", "release", "examples", "cases")
+CAUSES = ["none", "mode_change", "unmodeled_mode", "time_delay", "disturbance",
+          "cross_coupling", "pose_dependence", "nonlinearity", "unexplained"]
+ROWS = ["healthy", "mode_change", "unmodeled_mode", "time_delay", "disturbance",
+        "cross_coupling", "pose_dependence", "nonlinearity"]
+
+
+def close(a, b, rel):
+    return a is not None and b is not None and abs(a / b - 1.0) <= rel
+
+
+def numbers_right(truth, got):
+    cause = truth["cause"]
+    t, g = truth["details"], got.get("details", {})
+    if cause == "none":
+        return True
+    if cause == "disturbance":
+        found = g.get("freq_hz") or []
+        return all(any(close(f, w, 0.01) for f in found) for w in t["freq_hz"])
+    if cause == "time_delay":
+        return close(g.get("delay_s"), t["delay_s"], 0.1)
+    if cause == "pose_dependence":
+        want, rate = t["freq_shift_pct_per_m"], g.get("freq_shift_pct_per_m")
+        return (g.get("axis_of_variation") == t["axis_of_variation"] and rate is not None
+                and (abs(rate - want) <= 0.2 * abs(want) or abs(rate - want) <= 5.0))
+    if cause == "cross_coupling":
+        return g.get("channel") == t["channel"] and close(g.get("freq_hz"), t["freq_hz"], 0.01)
+    if cause == "nonlinearity":
+        return g.get("kind") == t.get("kind", g.get("kind")) and close(
+            g.get("freq_hz"), t["freq_hz"], 0.02)
+    return close(g.get("freq_hz"), t["freq_hz"], 0.01)
+
+
+def run(args):
+    return subprocess.run(args, capture_output=True, text=True)
+
+
+def main():
+    argv = [a for a in sys.argv[1:] if not a.startswith("-")]
+    seeds = int(argv[0]) if argv else 5
+    random_machine = "--random-machine" in sys.argv
+    verbose = "-v" in sys.argv
+    b = run(["cargo", "build", "--release", "-q", "--bin", "mtwin"])
+    c = run(["cargo", "build", "--release", "-q", "-p", "lumped", "--example", "cases"])
+    if b.returncode or c.returncode:
+        sys.exit(b.stderr + c.stderr)
+    table = {r: {c: 0 for c in CAUSES} for r in ROWS}
+    right = {r: 0 for r in ROWS}
+    t0 = time.time()
+    for seed in range(1, seeds + 1):
+        with tempfile.TemporaryDirectory() as d:
+            extra = ["--random-machine"] if random_machine else []
+            o = run([CASES, "--out", d, "--seed", str(seed)] + extra)
+            if o.returncode:
+                sys.exit(o.stderr)
+            imp = [os.path.join(d, "centre_impact", f)
+                   for f in sorted(os.listdir(os.path.join(d, "centre_impact")))]
+            twin = os.path.join(d, "twin.json")
+            o = run([MTWIN, "identify", "-q"] + imp + ["--out", twin])
+            if o.returncode:
+                print(f"seed {seed}: identify failed: {o.stderr.strip()}", file=sys.stderr)
+                continue
+            answers = json.load(open(os.path.join(d, "diagnose", "answers.json")))
+            for row in ROWS:
+                folder = os.path.join(d, "diagnose", row)
+                files = [os.path.join(folder, f) for f in sorted(os.listdir(folder))]
+                out = os.path.join(d, "out_" + row)
+                o = run([MTWIN, "diagnose", "-q", "--twin", twin] + files + ["--out", out])
+                if o.returncode:
+                    print(f"seed {seed} {row}: diagnose failed: {o.stderr.strip()}",
+                          file=sys.stderr)
+                    continue
+                got = json.load(open(os.path.join(out, "diagnosis.json")))
+                cause = got.get("cause", "unexplained")
+                table[row][cause if cause in CAUSES else "unexplained"] += 1
+                truth = answers[row]
+                if cause == truth["cause"] and numbers_right(truth, got):
+                    right[row] += 1
+                elif verbose:
+                    print(f"seed {seed} {row}: found {cause} {json.dumps(got.get('details'))[:300]}"
+                          f" | truth {json.dumps(truth['details'])[:200]}", file=sys.stderr)
+    kind = "random machine per seed" if random_machine else "nominal machine"
+    print(f"## diagnose confusion table, second generator `lumped` ({seeds} seeds per hidden"
+          f" effect, {kind}, one-pose twin from a healthy centre impact test, defaults only)\n")
+    print("| hidden \\ found | " + " | ".join(CAUSES) + " | numbers right |")
+    print("|---|" + "---:|" * len(CAUSES) + "---:|")
+    for r in ROWS:
+        print(f"| {r} | " + " | ".join(str(table[r][c]) for c in CAUSES)
+              + f" | {right[r]}/{seeds} |")
+    want = {r: answers_cause(r) for r in ROWS}
+    correct = sum(table[r][want[r]] for r in ROWS)
+    print(f"\ncause right in {correct}/{seeds * len(ROWS)} cases, numbers right in "
+          f"{sum(right.values())}; {time.time() - t0:.0f} s\n")
+
+
+def answers_cause(row):
+    return "none" if row == "healthy" else row
+
+
+if __name__ == "__main__":
+    main()
