@@ -70,7 +70,7 @@ fn simulate_cubic(
 ) -> Vec<[f64; 3]> {
     if hold == Hold::BandLimited {
         return crate::simulate::run_band_limited(forces, dt, |f, h, coarse| {
-            simulate_cubic_dyn(ev, f, &|m| pose_at(coarse(m)), h, Hold::Foh, cubic)
+            simulate_cubic_dyn(ev, f, &|m| pose_at(coarse(m)), h, Hold::BandLimited, cubic)
         });
     }
     simulate_cubic_dyn(ev, forces, pose_at, dt, hold, cubic)

@@ -52,7 +52,7 @@ pub fn simulate_twin(
                 f,
                 &|m| pose_at(coarse(m)),
                 h,
-                crate::simulate::Hold::Foh,
+                crate::simulate::Hold::BandLimited,
             )
         });
     }

@@ -102,8 +102,9 @@ pub fn upsample(x: &[[f64; 3]], factor: usize) -> Vec<[f64; 3]> {
 }
 
 /// Runs a whole-record simulation under [`Hold::BandLimited`]: `run(fine_forces,
-/// fine_dt, coarse_index_of_fine_sample)` simulates the upsampled record with
-/// [`Hold::Foh`]; its response is taken back at the original samples.
+/// fine_dt, coarse_index_of_fine_sample)` simulates the upsampled record step by step
+/// (a [`Simulator`] with [`Hold::BandLimited`] steps as [`Hold::Foh`]); its response is
+/// taken back at the original samples.
 pub(crate) fn run_band_limited(
     forces: &[[f64; 3]],
     dt: f64,
@@ -346,13 +347,16 @@ impl Simulator {
                         st.advance(&mut self.state[k * 3 + j], u0[j], u1[j]);
                     } else {
                         let u1 = if self.hold == Hold::Zoh { u0[j] } else { u1[j] };
+                        // a band-limited record is stepped at 16x its rate: the
+                        // sub-steps of 1/20 period suffice there
+                        let min_steps = if self.hold == Hold::BandLimited { 1 } else { 8 };
                         rk4_cubic(
                             &mut self.state[k * 3 + j],
                             &model.modes[k],
                             kappa,
-                            u0[j],
-                            u1,
+                            (u0[j], u1),
                             h,
+                            min_steps,
                         );
                     }
                 }
@@ -378,9 +382,11 @@ impl Simulator {
 }
 
 /// Advances `q̈ + 2ζω q̇ + ω² q (1 + κ q²) = u(t)` over `h`, `u` linear from `u0` to `u1`.
-fn rk4_cubic(x: &mut [f64; 2], mode: &Mode, kappa: f64, u0: f64, u1: f64, h: f64) {
+fn rk4_cubic(x: &mut [f64; 2], mode: &Mode, kappa: f64, u: (f64, f64), h: f64, min_steps: usize) {
+    let (u0, u1) = u;
     let (w, z) = (mode.wn, mode.zeta);
-    let n = ((h * w / (2.0 * std::f64::consts::PI) * 20.0).ceil() as usize).clamp(8, 100_000);
+    let n =
+        ((h * w / (2.0 * std::f64::consts::PI) * 20.0).ceil() as usize).clamp(min_steps, 100_000);
     let dt = h / n as f64;
     let f = |t: f64, x: [f64; 2]| -> [f64; 2] {
         let u = u0 + (u1 - u0) * t / h;
@@ -421,7 +427,7 @@ pub fn simulate<'a>(
 ) -> Vec<[f64; 3]> {
     if hold == Hold::BandLimited {
         return run_band_limited(forces, dt, |f, h, coarse| {
-            simulate_dyn(f, h, Hold::Foh, &mut |m| model_at(coarse(m)))
+            simulate_dyn(f, h, Hold::BandLimited, &mut |m| model_at(coarse(m)))
         });
     }
     simulate_dyn(forces, dt, hold, &mut model_at)

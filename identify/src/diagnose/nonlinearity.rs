@@ -12,6 +12,57 @@ use crate::timeseries::TimeSeries;
 use crate::twin::Twin;
 use serde_json::{json, Map};
 
+/// [`cand_nonlinearity`] needs the FRFs of the two force levels to disagree around the
+/// mode by at least this many times their variance (mean over the lines; about 1 for a
+/// linear structure).
+const LEVEL_DISAGREEMENT_MIN: f64 = 4.0;
+
+/// Mean over the lines within ±3 half-power bandwidths of `f0` (at least ±3 lines), of
+/// every channel both point sets hold, of `|H_low − H_high|² / (σ_low² + σ_high²)`: how
+/// far the FRFs measured at two force levels disagree, in units of their variance.
+fn level_disagreement(low: &[Points], high: &[Points], f0: f64, zeta: f64) -> f64 {
+    let (mut sum, mut n) = (0.0, 0usize);
+    for pl in low {
+        let Some(ph) = high.iter().find(|p| p.channel == pl.channel) else {
+            continue;
+        };
+        let spacing = |f: &[f64]| {
+            f.windows(2)
+                .map(|w| w[1] - w[0])
+                .fold(f64::INFINITY, f64::min)
+        };
+        let (dl, dh) = (spacing(&pl.freqs_hz), spacing(&ph.freqs_hz));
+        let half = (3.0 * zeta * f0).max(3.0 * dl.max(dh));
+        for (i, &f) in pl.freqs_hz.iter().enumerate() {
+            if (f - f0).abs() > half {
+                continue;
+            }
+            // the high-force FRF at f: linear between its two neighbouring lines (the two
+            // levels' records may differ in length, so in line spacing)
+            let Some(j) = ph.freqs_hz.windows(2).position(|w| w[0] <= f && f <= w[1]) else {
+                continue;
+            };
+            let (fa, fb) = (ph.freqs_hz[j], ph.freqs_hz[j + 1]);
+            if fb - fa > 2.0 * dh {
+                continue; // a gap (lines dropped for coherence)
+            }
+            let t = (f - fa) / (fb - fa);
+            let h = ph.h[j] * (1.0 - t) + ph.h[j + 1] * t;
+            let sh = ph.sigma[j] * (1.0 - t) + ph.sigma[j + 1] * t;
+            let var = pl.sigma[i].powi(2) + sh * sh;
+            if var > 0.0 {
+                sum += (pl.h[i] - h).norm_sqr() / var;
+                n += 1;
+            }
+        }
+    }
+    if n == 0 {
+        0.0
+    } else {
+        sum / n as f64
+    }
+}
+
 /// Records at clearly different force levels (peak force ratio ≥ 2): each mode's
 /// frequency and damping refitted on the low-force and on the high-force records; the mode
 /// that moves most with the force level names the nonlinearity (frequency up = hardening,
@@ -116,6 +167,16 @@ pub(super) fn cand_nonlinearity(
             high.modes[k].freq_hz()
         )
     });
+    // model-free evidence: the FRFs measured at the two force levels must themselves
+    // disagree around the mode beyond their variance (retunes of a model that misses the
+    // data for another reason -- a new mode, a changed structure -- move by chance)
+    let disagreement = level_disagreement(&pl, &ph, low.modes[k].freq_hz(), low.modes[k].zeta);
+    trace(|| {
+        format!("nonlinearity: per-level FRFs around mode {k} disagree by {disagreement:.2} x their variance")
+    });
+    if disagreement < LEVEL_DISAGREEMENT_MIN {
+        return None;
+    }
     let df = high.modes[k].wn / low.modes[k].wn - 1.0;
     let dz = high.modes[k].zeta / low.modes[k].zeta - 1.0;
     let kind = if df.abs() >= 0.002 {
