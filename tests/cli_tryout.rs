@@ -35,8 +35,7 @@ fn interp(freqs: &[f64], h: &[Complex64], at: f64) -> Complex64 {
 
 /// Fit [%] of the twin at `pose` against `truth` for channel `ch` in `band`.
 fn twin_vs_truth(twin: &Twin, truth: &Frf, pose: [f64; 3], ch: Channel, band: (f64, f64)) -> f64 {
-    let mut ev = TwinEvaluator::new(twin).expect("evaluator");
-    let m = ev.model_at(pose).clone();
+    let m = twin.model_at(pose).expect("model at pose");
     let ci = m.channel_index(ch).expect("channel in the twin");
     let (mut t, mut e) = (Vec::new(), Vec::new());
     for (k, &f) in truth.freqs_hz.iter().enumerate() {

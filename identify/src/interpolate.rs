@@ -242,6 +242,14 @@ fn unflatten(v: &[f64], m: &mut ModalModel, floor_wn: &[f64]) {
     }
 }
 
+impl Twin {
+    /// The twin's model at `pose` (interpolated between the measured poses); for many
+    /// poses, keep a [`TwinEvaluator`].
+    pub fn model_at(&self, pose: [f64; 3]) -> Result<ModalModel> {
+        Ok(TwinEvaluator::new(self)?.model_at(pose).clone())
+    }
+}
+
 impl TwinEvaluator {
     /// Prepares the evaluator. All pose models must share channels and mode count
     /// (tracked modes).

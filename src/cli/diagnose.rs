@@ -5,7 +5,6 @@ use crate::report::{esc, page, plot, Scale, Series};
 use anyhow::{Context, Result};
 use identify::diagnose::{diagnose, evidence, slice, split, DiagnoseOptions};
 use identify::extended::simulate_extended;
-use identify::interpolate::TwinEvaluator;
 use identify::simulate::{force_rows, Hold};
 use identify::twin::Twin;
 use std::path::PathBuf;
@@ -172,10 +171,8 @@ fn report(
         .collect();
     if let Ok(ev) = evidence(&parts) {
         let pose = series[0].mean_position();
-        let mut e0 = TwinEvaluator::new(twin)?;
-        let m0 = e0.model_at(pose).clone();
-        let mut e1 = TwinEvaluator::new(ext)?;
-        let m1 = e1.model_at(pose).clone();
+        let m0 = twin.model_at(pose)?;
+        let m1 = ext.model_at(pose)?;
         let band = (
             twin.poses
                 .iter()

@@ -4,7 +4,6 @@
 //! the mode frequencies over the machine's life.
 
 use crate::report::{esc, page, plot, Scale, Series};
-use identify::interpolate::TwinEvaluator;
 use identify::model::ModalModel;
 use identify::operating::operating_spectra;
 use identify::refit::{default_nfft, simulate_record, RefitReport};
@@ -134,8 +133,7 @@ pub fn refit_report(old: &Twin, new: &Twin, rep: &RefitReport, series: &[TimeSer
 }
 
 fn model_at(twin: &Twin, pose: [f64; 3]) -> Option<ModalModel> {
-    let mut ev = TwinEvaluator::new(twin).ok()?;
-    Some(ev.model_at(pose).clone())
+    twin.model_at(pose).ok()
 }
 
 /// Operating H1 at the lines used vs the twin's FRF before and after.

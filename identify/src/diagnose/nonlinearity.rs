@@ -4,7 +4,6 @@
 use super::candidate::{dominant_axis, map_models, retune, Cand};
 use super::evidence::{evidence, force_mag, holdout_fit, level_units, twin_points, Split};
 use super::{trace, Cause};
-use crate::interpolate::TwinEvaluator;
 use crate::modal_update::Points;
 use crate::model::ModalModel;
 use crate::simulate::{force_rows, Hold};
@@ -98,8 +97,7 @@ pub(super) fn cand_nonlinearity(
             .collect()
     };
     let (low_recs, high_recs) = (group(false), group(true));
-    let mut evl = TwinEvaluator::new(twin).ok()?;
-    let m0 = evl.model_at(pose).clone();
+    let m0 = twin.model_at(pose).ok()?;
     let pts_of = |recs: &[TimeSeries]| -> Option<Vec<Points>> {
         let e = evidence(recs).ok()?;
         let p = twin_points(&e, twin, band, min_coh);
