@@ -14,7 +14,7 @@ fn main() -> ExitCode {
     match cli::run(args) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("mtwin: error: {e:#}");
+            eprintln!("mtwin: error: {}", cli::error_text(&e));
             if cli::is_bad_input(&e) {
                 ExitCode::from(2)
             } else {

@@ -109,6 +109,22 @@ fn missing_file_exits_2_and_names_it() {
     let o = mtwin(&["frf", "no_such_file.csv", "--out", s(&out)]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("no_such_file.csv"));
+    // the cause said once (it used to repeat the I/O error after the message quoting it)
+    for o in [
+        o,
+        mtwin(&[
+            "eval",
+            "--twin",
+            "no_such_twin.json",
+            "--at",
+            "0,0,0",
+            "--out",
+            s(&out),
+        ]),
+    ] {
+        let err = stderr(&o);
+        assert_eq!(err.matches("os error 2").count(), 1, "{err}");
+    }
 }
 
 #[test]

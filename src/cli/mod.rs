@@ -136,6 +136,23 @@ impl std::fmt::Display for BadInput {
 
 impl std::error::Error for BadInput {}
 
+/// The error and its causes, each said once: a cause whose text the message already
+/// holds (an I/O error the message quotes) is not repeated.
+pub fn error_text(e: &anyhow::Error) -> String {
+    let mut text = String::new();
+    for c in e.chain() {
+        let s = c.to_string();
+        if text.contains(&s) {
+            continue;
+        }
+        if !text.is_empty() {
+            text.push_str(": ");
+        }
+        text.push_str(&s);
+    }
+    text
+}
+
 /// True when the error chain holds a bad-input error.
 pub fn is_bad_input(e: &anyhow::Error) -> bool {
     e.chain().any(|c| {
