@@ -86,3 +86,15 @@ impl std::fmt::Display for Channel {
         write!(f, "{}{}", self.output.letter(), self.input.letter())
     }
 }
+
+/// A pose for messages: `(0.100, 0.650, 0.050) m` (millimetre resolution, not the float's
+/// every digit).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PoseText(pub [f64; 3]);
+
+impl std::fmt::Display for PoseText {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let p = self.0;
+        write!(f, "({:.3}, {:.3}, {:.3}) m", p[0], p[1], p[2])
+    }
+}

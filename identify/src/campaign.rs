@@ -495,11 +495,11 @@ pub fn identify_frfs(
                 .sqrt();
             if d <= opts.pose_tol_m {
                 return Err(Error::BadInput(format!(
-                    "{} and {} are both at pose {:?}: give each pose once (merge the \
+                    "{} and {} are both at pose {}: give each pose once (merge the \
                      channels into one file) or set distinct poses",
                     a.sources.join("+"),
                     b.sources.join("+"),
-                    a.pose
+                    crate::axis::PoseText(a.pose)
                 )));
             }
         }
@@ -574,7 +574,7 @@ pub fn identify_frfs(
         .flat_map(|f| {
             f.warnings
                 .iter()
-                .map(move |w| format!("pose {:?}: {w}", f.pose))
+                .map(move |w| format!("pose {}: {w}", crate::axis::PoseText(f.pose)))
         })
         .collect();
     if fits.len() > 1 {
@@ -780,9 +780,9 @@ fn track_modes(fits: &mut [PoseFit]) -> Result<Vec<String>> {
         let own_is_better = fits[i].model.modes.len() == m && own > carried + 0.1;
         if carried < own - 1.0 && !own_is_better {
             warnings.push(format!(
-                "pose {:?}: tracked model fits {carried:.2} % vs {own:.2} % for the pose's own \
+                "pose {}: tracked model fits {carried:.2} % vs {own:.2} % for the pose's own \
                  fit ({} modes); the pose may hold a mode its neighbours lack",
-                fits[i].pose,
+                crate::axis::PoseText(fits[i].pose),
                 fits[i].model.modes.len()
             ));
         }
@@ -791,7 +791,7 @@ fn track_modes(fits: &mut [PoseFit]) -> Result<Vec<String>> {
             warnings.extend(
                 repair_window_damping(&mut refined, s)
                     .into_iter()
-                    .map(|w| format!("pose {:?}: {w}", fits[i].pose)),
+                    .map(|w| format!("pose {}: {w}", crate::axis::PoseText(fits[i].pose))),
             );
         }
         let refined = if own_is_better {
@@ -876,7 +876,9 @@ fn fit_pose(
         (mean_fit(&f), worst)
     };
     let mut best = fit_frf(frf, options).map_err(|e| match e {
-        Error::Numerical(msg) => Error::Numerical(format!("pose {pose:?}: {msg}")),
+        Error::Numerical(msg) => {
+            Error::Numerical(format!("pose {}: {msg}", crate::axis::PoseText(pose)))
+        }
         other => other,
     })?;
     let debug = std::env::var_os("MTWIN_DEBUG_FIT").is_some();
@@ -1177,9 +1179,9 @@ fn resplit_coincident_modes(fits: &mut [PoseFit]) -> Vec<String> {
             let after = mean_fit(&channel_fits_as(&trial, &fits[i].frf, &band, 0, None));
             if after >= before - 0.05 {
                 notes.push(format!(
-                    "pose {:?}: modes at {:.1} and {:.1} Hz coincide (the data fix only their \
+                    "pose {}: modes at {:.1} and {:.1} Hz coincide (the data fix only their \
                      sum); their split taken from the other poses (fit {:.2} -> {:.2} %)",
-                    fits[i].pose,
+                    crate::axis::PoseText(fits[i].pose),
                     trial.modes[a].freq_hz(),
                     trial.modes[b].freq_hz(),
                     before,

@@ -1168,18 +1168,20 @@ fn push_history(
     }
     let summary = if report.updated {
         format!(
-            "{:?} refit at pose {:?}: simulated-response fit {:.2} % -> {:.2} %, {} modes changed",
+            "{:?} refit at pose {}: simulated-response fit {:.2} % -> {:.2} %, {} modes changed",
             opts.method,
-            pose,
+            crate::axis::PoseText(pose),
             report.drift_fit_pct,
             report.fit_after_pct,
             report.modes.len()
         )
     } else {
         format!(
-            "{:?} refit at pose {:?}: drift (simulated-response fit {:.2} %) but no validated \
+            "{:?} refit at pose {}: drift (simulated-response fit {:.2} %) but no validated \
              update; modes kept",
-            opts.method, pose, report.drift_fit_pct
+            opts.method,
+            crate::axis::PoseText(pose),
+            report.drift_fit_pct
         )
     };
     out.history.push(HistoryEntry {

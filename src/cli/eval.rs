@@ -105,9 +105,11 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
     if !inside {
         let (lo, hi) = ev.bounds();
         out.say(format!(
-            "warning: pose {:?} is outside the measured box {:?}..{:?}: the model of the nearest \
+            "warning: pose {} is outside the measured box {}..{}: the model of the nearest \
              point of the box is used (no extrapolation)",
-            a.at, lo, hi
+            identify::axis::PoseText(a.at),
+            identify::axis::PoseText(lo),
+            identify::axis::PoseText(hi)
         ));
     }
     let model = ev.model_at(a.at).clone();

@@ -86,8 +86,8 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
     let mut ev = TwinEvaluator::new(&twin)?;
     if !ev.is_inside(a.at) {
         out.say(format!(
-            "note: pose {:?} is outside the measured poses; the model of the nearest point of the measured box is used",
-            a.at
+            "note: pose {} is outside the measured poses; the model of the nearest point of the measured box is used",
+            identify::axis::PoseText(a.at)
         ));
     }
     let mut model = ev.model_at(a.at).clone();

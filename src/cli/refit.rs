@@ -75,8 +75,8 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
     new.provenance.command = std::env::args().collect::<Vec<_>>().join(" ");
     new.save(&a.out)?;
     out.say(format!(
-        "drift check at pose {:?}: simulated response fit {:.2} %, operating FRF misfit {:.1} σ -> {}",
-        rep.pose,
+        "drift check at pose {}: simulated response fit {:.2} %, operating FRF misfit {:.1} σ -> {}",
+        identify::axis::PoseText(rep.pose),
         rep.drift_fit_pct,
         rep.drift_chi,
         if rep.updated {
