@@ -556,7 +556,7 @@ fn irregular_step(
         file,
         line,
         Some(tname),
-        format!("time step {step:e} s differs by more than 1 % from the {which} step {reference:e} s; the record must be uniformly sampled (a row is missing or repeated here, or the sampling rate changed)"),
+        format!("time step {step:.4e} s differs by more than 1 % from the {which} step {reference:.4e} s; the record must be uniformly sampled (a row is missing or repeated here, or the sampling rate changed)"),
     )
 }
 
