@@ -6,7 +6,7 @@
 //!
 //! DIR/centre_impact/imp_{x,y}.csv (a healthy impact test at the centre, 5 hits each: a
 //! one-pose twin) and DIR/diagnose/<effect>/ with answers.json, every effect's parameters
-//! drawn from the seed. `bench/confusion_lumped.py` runs it per seed.
+//! drawn from the seed. `bench/confusion.py` runs it per seed.
 
 use lumped::effects::{case, Effect};
 use lumped::measure::{impact_record, Setup};

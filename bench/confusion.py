@@ -1,7 +1,15 @@
 #!/usr/bin/env python3
-"""Confusion table of `mtwin diagnose` on the second generator (`lumped`).
+"""Confusion tables of `mtwin diagnose`, defaults only, on every generator we have:
 
-For each seed: `lumped`'s `cases` example writes a healthy impact test at the centre and
+- `vmachine` (our first generator): `cargo run --release --example diagnose_confusion`,
+  impact and milling tables;
+- `lumped` (the second, structurally different generator), see below;
+- the independent tryout generator's four cases (`../shared/data/tryout_gantry/diagnose`),
+  diagnosed against the twin identified from its campaign.
+
+    python3 bench/confusion.py [SEEDS] [vmachine|lumped|tryout|all] [--random-machine] [-v]
+
+(default 5 seeds, all). `lumped`: for each seed: `lumped`'s `cases` example writes a healthy impact test at the centre and
 one folder per hidden effect (parameters drawn from the seed) with the SPEC section 4
 answer; `mtwin identify` makes a one-pose twin from the healthy impacts with default
 options; `mtwin diagnose` runs on every folder with default options. Rows = the effect
@@ -9,8 +17,6 @@ hidden, columns = the cause found; "numbers right" as in the vmachine table
 (`examples/diagnose_confusion.rs`): frequencies within 1 % (2 % for the nonlinear mode),
 delay within 10 %, the pose-dependence rate within 20 % or 5 %/m, the right
 channel/axis of variation/kind; every true disturbance frequency found within 1 %.
-
-    python3 bench/confusion_lumped.py [SEEDS] [--random-machine]   (default 5 seeds)
 
 Builds what it needs (`cargo build --release`), works in a temporary folder, prints a
 Markdown table; `-v` prints every miss.
@@ -61,15 +67,7 @@ def run(args):
     return subprocess.run(args, capture_output=True, text=True)
 
 
-def main():
-    argv = [a for a in sys.argv[1:] if not a.startswith("-")]
-    seeds = int(argv[0]) if argv else 5
-    random_machine = "--random-machine" in sys.argv
-    verbose = "-v" in sys.argv
-    b = run(["cargo", "build", "--release", "-q", "--bin", "mtwin"])
-    c = run(["cargo", "build", "--release", "-q", "-p", "lumped", "--example", "cases"])
-    if b.returncode or c.returncode:
-        sys.exit(b.stderr + c.stderr)
+def lumped(seeds, random_machine, verbose):
     table = {r: {c: 0 for c in CAUSES} for r in ROWS}
     right = {r: 0 for r in ROWS}
     t0 = time.time()
@@ -88,23 +86,14 @@ def main():
                 continue
             answers = json.load(open(os.path.join(d, "diagnose", "answers.json")))
             for row in ROWS:
-                folder = os.path.join(d, "diagnose", row)
-                files = [os.path.join(folder, f) for f in sorted(os.listdir(folder))]
-                out = os.path.join(d, "out_" + row)
-                o = run([MTWIN, "diagnose", "-q", "--twin", twin] + files + ["--out", out])
-                if o.returncode:
-                    print(f"seed {seed} {row}: diagnose failed: {o.stderr.strip()}",
-                          file=sys.stderr)
-                    continue
-                got = json.load(open(os.path.join(out, "diagnosis.json")))
-                cause = got.get("cause", "unexplained")
-                table[row][cause if cause in CAUSES else "unexplained"] += 1
-                truth = answers[row]
-                if cause == truth["cause"] and numbers_right(truth, got):
+                cause, ok, got = diagnose_case(twin, os.path.join(d, "diagnose", row),
+                                               answers[row], d, f"seed {seed}")
+                table[row][cause] += 1
+                if ok:
                     right[row] += 1
-                elif verbose:
+                elif verbose and got is not None:
                     print(f"seed {seed} {row}: found {cause} {json.dumps(got.get('details'))[:300]}"
-                          f" | truth {json.dumps(truth['details'])[:200]}", file=sys.stderr)
+                          f" | truth {json.dumps(answers[row]['details'])[:200]}", file=sys.stderr)
     kind = "random machine per seed" if random_machine else "nominal machine"
     print(f"## diagnose confusion table, second generator `lumped` ({seeds} seeds per hidden"
           f" effect, {kind}, one-pose twin from a healthy centre impact test, defaults only)\n")
@@ -113,10 +102,72 @@ def main():
     for r in ROWS:
         print(f"| {r} | " + " | ".join(str(table[r][c]) for c in CAUSES)
               + f" | {right[r]}/{seeds} |")
-    want = {r: answers_cause(r) for r in ROWS}
-    correct = sum(table[r][want[r]] for r in ROWS)
+    correct = sum(table[r][answers_cause(r)] for r in ROWS)
     print(f"\ncause right in {correct}/{seeds * len(ROWS)} cases, numbers right in "
           f"{sum(right.values())}; {time.time() - t0:.0f} s\n")
+
+
+def diagnose_case(twin, folder, truth, work, tag):
+    """(cause found, cause and numbers right, the diagnosis JSON or None)."""
+    files = [os.path.join(folder, f) for f in sorted(os.listdir(folder))]
+    out = os.path.join(work, "out_" + os.path.basename(folder))
+    o = run([MTWIN, "diagnose", "-q", "--twin", twin] + files + ["--out", out])
+    if o.returncode:
+        print(f"{tag} {os.path.basename(folder)}: diagnose failed: {o.stderr.strip()}",
+              file=sys.stderr)
+        return "unexplained", False, None
+    got = json.load(open(os.path.join(out, "diagnosis.json")))
+    cause = got.get("cause", "unexplained")
+    cause = cause if cause in CAUSES else "unexplained"
+    return cause, cause == truth["cause"] and numbers_right(truth, got), got
+
+
+def tryout():
+    root = os.path.join(ROOT, "..", "shared", "data", "tryout_gantry")
+    if not os.path.isdir(root):
+        print("## tryout cases: ../shared/data/tryout_gantry not found\n")
+        return
+    t0 = time.time()
+    with tempfile.TemporaryDirectory() as d:
+        camp = os.path.join(root, "campaign")
+        twin = os.path.join(d, "twin.json")
+        o = run([MTWIN, "identify", "-q"]
+                + [os.path.join(camp, f) for f in sorted(os.listdir(camp))] + ["--out", twin])
+        if o.returncode:
+            sys.exit(o.stderr)
+        answers = json.load(open(os.path.join(root, "diagnose", "answers.json")))
+        print("## tryout cases (independent generator; twin from its campaign, defaults only)\n")
+        print("| case | truth | found | numbers right | held-out fit before → after [%] |")
+        print("|---|---|---|---|---|")
+        right = 0
+        for case, truth in answers.items():
+            cause, ok, got = diagnose_case(twin, os.path.join(root, "diagnose", case), truth, d,
+                                           "tryout")
+            right += ok
+            fits = (f"{got['fit_before_pct']:.2f} → {got['fit_after_pct']:.2f}"
+                    if got else "—")
+            print(f"| {case} | {truth['cause']} | {cause} | {'yes' if ok else 'no'} | {fits} |")
+        print(f"\n{right}/{len(answers)} right; {time.time() - t0:.0f} s\n")
+
+
+def main():
+    argv = [a for a in sys.argv[1:] if not a.startswith("-")]
+    seeds = int(argv[0]) if argv else 5
+    which = argv[1] if len(argv) > 1 else "all"
+    random_machine = "--random-machine" in sys.argv
+    verbose = "-v" in sys.argv
+    b = run(["cargo", "build", "--release", "-q", "--bin", "mtwin"])
+    c = run(["cargo", "build", "--release", "-q", "-p", "lumped", "--example", "cases"])
+    if b.returncode or c.returncode:
+        sys.exit(b.stderr + c.stderr)
+    if which in ("vmachine", "all"):
+        sys.stdout.flush()
+        subprocess.run(["cargo", "run", "--release", "-q", "--example", "diagnose_confusion",
+                        "--", str(seeds), "both"], cwd=ROOT)
+    if which in ("lumped", "all"):
+        lumped(seeds, random_machine, verbose)
+    if which in ("tryout", "all"):
+        tryout()
 
 
 def answers_cause(row):
