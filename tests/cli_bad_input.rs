@@ -109,6 +109,17 @@ fn missing_file_exits_2_and_names_it() {
     let o = mtwin(&["frf", "no_such_file.csv", "--out", s(&out)]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("no_such_file.csv"));
+    // a folder given for a file is bad input too (exit 2, not 1)
+    let o = mtwin(&[
+        "eval",
+        "--twin",
+        s(d.path()),
+        "--at",
+        "0,0,0",
+        "--out",
+        s(&out),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     // the cause said once (it used to repeat the I/O error after the message quoting it)
     for o in [
         o,

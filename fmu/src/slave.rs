@@ -205,8 +205,8 @@ impl Slave {
     fn var(&self, vr: u32) -> Result<Var, String> {
         self.vars.get(vr as usize).copied().ok_or_else(|| {
             format!(
-                "unknown value reference {vr} (this FMU has 0..{})",
-                self.vars.len()
+                "unknown value reference {vr} (this FMU has 0..={})",
+                self.vars.len().saturating_sub(1)
             )
         })
     }

@@ -60,7 +60,13 @@ impl Error {
         matches!(
             self,
             Error::BadFile { .. } | Error::BadInput(_) | Error::Schema { .. } | Error::Json { .. }
-        ) || matches!(self, Error::Io { source, .. } if source.kind() == std::io::ErrorKind::NotFound)
+        ) || matches!(self, Error::Io { source, .. } if matches!(
+            source.kind(),
+            // a missing file, a folder given for a file, a file that is not text
+            std::io::ErrorKind::NotFound
+                | std::io::ErrorKind::IsADirectory
+                | std::io::ErrorKind::InvalidData
+        ))
     }
 
     /// Shorthand for a [`Error::BadFile`].

@@ -41,7 +41,7 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
     identify::atomic::write_atomic(&a.out.join("diagnosis.json"), json.as_bytes())?;
     let html = report(&twin, &ext, &series, &diag, &opts)?;
     identify::atomic::write_atomic(&a.out.join("report.html"), html.as_bytes())?;
-    out.say(format!("cause: {:?}", diag.cause));
+    out.say(format!("cause: {}", diag.cause));
     out.say(format!("  {}", diag.summary));
     out.say(format!(
         "  held-out fit: {:.2} % -> {:.2} % ({})",
@@ -69,7 +69,7 @@ fn report(
 ) -> Result<String> {
     let mut body = String::new();
     body.push_str(&format!(
-        "<h2>Cause: <code>{:?}</code></h2><p>{}</p><p>Held-out fit: original twin <b>{:.2} %</b>, \
+        "<h2>Cause: <code>{}</code></h2><p>{}</p><p>Held-out fit: original twin <b>{:.2} %</b>, \
          extended twin <b>{:.2} %</b>. FRF misfit of the original twin: {:.1} standard errors (RMS).</p>",
         diag.cause,
         esc(&diag.summary),
@@ -80,7 +80,7 @@ fn report(
     body.push_str("<h3>Causes tried</h3><table><tr><th>cause</th><th>FRF misfit χ</th><th>held-out fit %</th><th>numbers</th></tr>");
     for c in &diag.candidates {
         body.push_str(&format!(
-            "<tr><td>{:?}</td><td>{:.2}</td><td>{:.2}</td><td style='text-align:left'>{}</td></tr>",
+            "<tr><td>{}</td><td>{:.2}</td><td>{:.2}</td><td style='text-align:left'>{}</td></tr>",
             c.cause,
             c.chi,
             c.fit_holdout_pct,

@@ -104,6 +104,14 @@ pub enum Cause {
     Unexplained,
 }
 
+impl std::fmt::Display for Cause {
+    /// The SPEC code (`mode_change`, `none`, ...), as in `diagnosis.json`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let v = serde_json::to_value(self).ok();
+        f.write_str(v.as_ref().and_then(Value::as_str).unwrap_or("unexplained"))
+    }
+}
+
 /// Options of [`diagnose`].
 #[derive(Debug, Clone)]
 pub struct DiagnoseOptions {
