@@ -79,6 +79,11 @@ fn repeated_time_is_rejected() {
 }
 
 #[test]
+fn semicolon_separated_file_is_named_as_such() {
+    check_bad("t;fx;ax\n0;1;2\n0.001;1;2\n", 1, "separated by semicolons");
+}
+
+#[test]
 fn missing_force_column_is_rejected() {
     let csv: String = std::iter::once("t,ax\n".to_string())
         .chain((0..40).map(|i| format!("{},{}\n", i as f64 * 1e-3, i)))

@@ -353,6 +353,20 @@ struct Header {
 impl Header {
     /// Parses the header line `text` (line `line`); unknown columns add a warning.
     fn parse(line: usize, text: &str, file: &Path, warnings: &mut Vec<String>) -> Result<Header> {
+        // a spreadsheet's export with another separator: say so, not "no column t"
+        for (sep, name) in [(';', "semicolons"), ('\t', "tabs")] {
+            if !text.contains(',') && text.split(sep).count() > 1 {
+                return Err(Error::bad_file(
+                    file,
+                    line,
+                    None,
+                    format!(
+                        "the header is separated by {name}; mtwin reads comma-separated files \
+                         (decimal point '.'): export as CSV with ',' between columns"
+                    ),
+                ));
+            }
+        }
         let names: Vec<&str> = text.split(',').map(str::trim).collect();
         let mut roles = Vec::with_capacity(names.len());
         let mut time_col = None;
