@@ -43,6 +43,35 @@ pub fn simulate_extended(
     Ok(y)
 }
 
+/// The twin's simulation (with its extensions) of a measured record as its sensor saw it:
+/// the record's forces, poses and absolute time, the band-limited hold of a measured
+/// record ([`Hold::BandLimited`]); per axis x, y, z the displacement or, for an
+/// accelerometer record, its second derivative (a band-limited FIR). What refit and
+/// diagnose compare with the measured response.
+pub fn simulate_as_measured(
+    twin: &Twin,
+    ts: &crate::timeseries::TimeSeries,
+) -> crate::Result<[Vec<f64>; 3]> {
+    let f = crate::simulate::force_rows(ts);
+    let y = simulate_extended(
+        twin,
+        &f,
+        |i| ts.position_at(i),
+        ts.t0,
+        ts.dt,
+        Hold::BandLimited,
+    )?;
+    let accel = ts.response_kind == Some(crate::timeseries::ResponseKind::Acceleration);
+    Ok(std::array::from_fn(|a| {
+        let d: Vec<f64> = y.iter().map(|r| r[a]).collect();
+        if accel {
+            crate::signal::second_derivative(&d, ts.dt)
+        } else {
+            d
+        }
+    }))
+}
+
 /// `out[i] = y(t_i - shift·dt)` by linear interpolation (held at the ends).
 fn delay(y: &[[f64; 3]], shift: f64) -> Vec<[f64; 3]> {
     let n = y.len();

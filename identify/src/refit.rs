@@ -61,9 +61,7 @@ use crate::modal_update::{
 use crate::model::ModalModel;
 use crate::operating::{operating_spectra, OperatingSpectra};
 use crate::rational_fit::{refine_from, FitOptions};
-use crate::signal::second_derivative;
-use crate::simulate::{force_rows, Hold};
-use crate::timeseries::{ResponseKind, TimeSeries};
+use crate::timeseries::TimeSeries;
 use crate::twin::{now_unix, HistoryEntry, Twin};
 use num_complex::Complex64;
 use serde::{Deserialize, Serialize};
@@ -203,15 +201,7 @@ pub type AxisTrace = (Axis, Vec<f64>, Vec<f64>);
 /// response quantity, per response axis present in both (the band-limited hold of a
 /// measured record, [`Hold::BandLimited`]).
 pub fn simulate_record(twin: &Twin, ts: &TimeSeries) -> Result<Vec<AxisTrace>> {
-    let forces = force_rows(ts);
-    let y = crate::extended::simulate_extended(
-        twin,
-        &forces,
-        |i| ts.position_at(i),
-        ts.t0,
-        ts.dt,
-        Hold::BandLimited,
-    )?;
+    let y = crate::extended::simulate_as_measured(twin, ts)?;
     let outs: Vec<Axis> = twin.channels.iter().map(|c| c.output).collect();
     let mut res = Vec::new();
     for a in Axis::ALL {
@@ -219,11 +209,7 @@ pub fn simulate_record(twin: &Twin, ts: &TimeSeries) -> Result<Vec<AxisTrace>> {
         if !outs.contains(&a) {
             continue;
         }
-        let mut sim: Vec<f64> = y.iter().map(|r| r[a.index()]).collect();
-        if ts.response_kind == Some(ResponseKind::Acceleration) {
-            sim = second_derivative(&sim, ts.dt);
-        }
-        res.push((a, meas.to_vec(), sim));
+        res.push((a, meas.to_vec(), y[a.index()].clone()));
     }
     Ok(res)
 }

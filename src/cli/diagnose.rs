@@ -4,8 +4,7 @@ use super::{read_series, Output};
 use crate::report::{esc, page, plot, Scale, Series};
 use anyhow::{Context, Result};
 use identify::diagnose::{diagnose, evidence, slice, split, DiagnoseOptions};
-use identify::extended::simulate_extended;
-use identify::simulate::{force_rows, Hold};
+use identify::extended::simulate_as_measured;
 use identify::twin::Twin;
 use std::path::PathBuf;
 
@@ -91,42 +90,15 @@ fn report(
     // measured vs simulated on the held-out part of the first record
     let ts = &series[0];
     let sp = split(ts, opts.holdout_fraction);
-    let f = force_rows(ts);
-    let y0 = simulate_extended(
-        twin,
-        &f,
-        |i| ts.position_at(i),
-        ts.t0,
-        ts.dt,
-        Hold::BandLimited,
-    )?;
-    let y1 = simulate_extended(
-        ext,
-        &f,
-        |i| ts.position_at(i),
-        ts.t0,
-        ts.dt,
-        Hold::BandLimited,
-    )?;
+    let y0 = simulate_as_measured(twin, ts)?;
+    let y1 = simulate_as_measured(ext, ts)?;
     let a = sp.holdout_start;
     let b = (a + 4000).min(ts.len());
     let t: Vec<f64> = (a..b).map(|i| ts.t0 + i as f64 * ts.dt).collect();
     for ax in ts.response_axes() {
         let Some(m) = ts.response(ax) else { continue };
         let accel = ts.response_kind == Some(identify::timeseries::ResponseKind::Acceleration);
-        let conv = |y: &[[f64; 3]]| -> Vec<f64> {
-            let d: Vec<f64> = y.iter().map(|r| r[ax.index()]).collect();
-            if !accel {
-                return d[a..b].to_vec();
-            }
-            (a..b)
-                .map(|i| {
-                    let (l, r) = (i.saturating_sub(1), (i + 1).min(d.len() - 1));
-                    (d[r] - 2.0 * d[i] + d[l]) / (ts.dt * ts.dt)
-                })
-                .collect()
-        };
-        let (s0, s1) = (conv(&y0), conv(&y1));
+        let (s0, s1) = (y0[ax.index()][a..b].to_vec(), y1[ax.index()][a..b].to_vec());
         body.push_str(&plot(
             &format!("held-out response {ax} ({})", ts.source),
             "t [s]",

@@ -5,10 +5,8 @@ use super::candidate::Cand;
 use super::evidence::{retain_lines, IncoherentLines};
 use super::{trace, Cause};
 use crate::axis::Axis;
-use crate::extended::simulate_extended;
+use crate::extended::simulate_as_measured;
 use crate::modal_update::Points;
-use crate::signal::second_derivative;
-use crate::simulate::{force_rows, Hold};
 use crate::timeseries::{ResponseKind, TimeSeries};
 use crate::twin::{Sinusoid, Twin};
 use num_complex::Complex64;
@@ -83,16 +81,7 @@ pub(super) fn cand_disturbance(
     incoherent: Option<&IncoherentLines>,
 ) -> Option<Cand> {
     let ts = parts.iter().max_by_key(|p| p.len())?;
-    let f = force_rows(ts);
-    let y = simulate_extended(
-        twin,
-        &f,
-        |i| ts.position_at(i),
-        ts.t0,
-        ts.dt,
-        Hold::BandLimited,
-    )
-    .ok()?;
+    let y = simulate_as_measured(twin, ts).ok()?;
     let n = ts.len();
     let nfft = n.next_power_of_two();
     let fft = FftPlanner::<f64>::new().plan_fft_forward(nfft);
@@ -136,11 +125,7 @@ pub(super) fn cand_disturbance(
     // force drives stays coherent with the force; a tone from outside does not.
     for a in Axis::ALL {
         let Some(m) = ts.response(a) else { continue };
-        let mut sim: Vec<f64> = y.iter().map(|r| r[a.index()]).collect();
-        if ts.response_kind == Some(ResponseKind::Acceleration) {
-            sim = second_derivative(&sim, ts.dt);
-        }
-        let res: Vec<f64> = m.iter().zip(&sim).map(|(a, b)| a - b).collect();
+        let res: Vec<f64> = m.iter().zip(&y[a.index()]).map(|(a, b)| a - b).collect();
         let win: Vec<f64> = (0..n)
             .map(|i| 0.5 - 0.5 * (2.0 * PI * i as f64 / n as f64).cos())
             .collect();
@@ -248,26 +233,13 @@ pub(super) fn cand_disturbance(
 /// The response of `ts` less `twin`'s simulation of it, per response axis, in the
 /// record's response quantity.
 fn residuals(twin: &Twin, ts: &TimeSeries) -> Option<Vec<(Axis, Vec<f64>)>> {
-    let f = force_rows(ts);
-    let y = simulate_extended(
-        twin,
-        &f,
-        |i| ts.position_at(i),
-        ts.t0,
-        ts.dt,
-        Hold::BandLimited,
-    )
-    .ok()?;
+    let y = simulate_as_measured(twin, ts).ok()?;
     Some(
         Axis::ALL
             .iter()
             .filter_map(|&a| {
                 let m = ts.response(a)?;
-                let mut sim: Vec<f64> = y.iter().map(|r| r[a.index()]).collect();
-                if ts.response_kind == Some(ResponseKind::Acceleration) {
-                    sim = second_derivative(&sim, ts.dt);
-                }
-                Some((a, m.iter().zip(&sim).map(|(a, b)| a - b).collect()))
+                Some((a, m.iter().zip(&y[a.index()]).map(|(a, b)| a - b).collect()))
             })
             .collect(),
     )

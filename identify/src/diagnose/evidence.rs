@@ -5,12 +5,12 @@
 
 use crate::axis::{Axis, Channel};
 use crate::error::{Error, Result};
-use crate::extended::simulate_extended;
+use crate::extended::simulate_as_measured;
 use crate::frf::fit_percent_real;
 use crate::modal_update::Points;
 use crate::operating::{operating_spectra, OperatingSpectra};
-use crate::signal::{second_derivative, slice};
-use crate::simulate::{force_rows, Hold};
+use crate::signal::slice;
+use crate::simulate::force_rows;
 use crate::timeseries::{ResponseKind, TimeSeries};
 use crate::twin::Twin;
 use num_complex::Complex64;
@@ -488,15 +488,7 @@ pub(super) fn holdout_fit_each<'a>(
     for (i, s) in splits.iter().enumerate() {
         let twin = twin_of(i);
         let ts = &s.full;
-        let f = force_rows(ts);
-        let y = simulate_extended(
-            twin,
-            &f,
-            |i| ts.position_at(i),
-            ts.t0,
-            ts.dt,
-            Hold::BandLimited,
-        )?;
+        let y = simulate_as_measured(twin, ts)?;
         // every measured response axis counts, also one the twin does not model (then
         // its prediction is 0: a missing cross channel shows) -- unless a force the twin
         // knows nothing of acts too (the z force in milling, when only x and y were hit):
@@ -511,12 +503,8 @@ pub(super) fn holdout_fit_each<'a>(
             if unknown_force && !twin.channels.iter().any(|c| c.output == a) {
                 continue;
             }
-            let mut yy: Vec<f64> = y.iter().map(|r| r[a.index()]).collect();
-            if ts.response_kind == Some(ResponseKind::Acceleration) {
-                yy = second_derivative(&yy, ts.dt);
-            }
             meas.extend_from_slice(&m[s.holdout_start..]);
-            sim.extend_from_slice(&yy[s.holdout_start..]);
+            sim.extend_from_slice(&y[a.index()][s.holdout_start..]);
         }
     }
     if meas.is_empty() {
