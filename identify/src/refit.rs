@@ -199,7 +199,7 @@ pub type AxisTrace = (Axis, Vec<f64>, Vec<f64>);
 
 /// Simulated response of a twin (with its extensions) for a record, in the record's
 /// response quantity, per response axis present in both (the band-limited hold of a
-/// measured record, [`Hold::BandLimited`]).
+/// measured record, [`crate::simulate::Hold::BandLimited`]).
 pub fn simulate_record(twin: &Twin, ts: &TimeSeries) -> Result<Vec<AxisTrace>> {
     let y = crate::extended::simulate_as_measured(twin, ts)?;
     let outs: Vec<Axis> = twin.channels.iter().map(|c| c.output).collect();

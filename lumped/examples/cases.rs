@@ -8,11 +8,8 @@
 //! one-pose twin) and DIR/diagnose/<effect>/ with answers.json, every effect's parameters
 //! drawn from the seed. `bench/confusion.py` runs it per seed.
 
-use lumped::effects::{case, Effect};
-use lumped::measure::{impact_record, Setup};
-use lumped::record::write_atomic;
-use lumped::structure::{Machine, CENTRE};
-use rayon::prelude::*;
+use lumped::effects::write_diagnosis_material;
+use lumped::structure::Machine;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -64,33 +61,5 @@ fn write(out: &Path, seed: u64, random: bool) -> Result<(), lumped::Error> {
     } else {
         Machine::nominal()
     };
-    let setup = Setup::impact();
-    for (a, name) in [(0usize, "x"), (1, "y")] {
-        impact_record(
-            &machine,
-            &setup,
-            CENTRE,
-            a,
-            5,
-            2.0,
-            seed * 1000 + 700 + a as u64,
-        )
-        .write_csv(&out.join(format!("centre_impact/imp_{name}.csv")))?;
-    }
-    let cases: Vec<_> = Effect::ALL
-        .par_iter()
-        .map(|&e| (e, case(&machine, e, seed)))
-        .collect();
-    let mut answers = serde_json::Map::new();
-    for (e, c) in cases {
-        for (name, r) in &c.records {
-            r.write_csv(&out.join("diagnose").join(e.folder()).join(name))?;
-        }
-        answers.insert(e.folder().into(), c.answer.clone());
-    }
-    write_atomic(
-        &out.join("diagnose/answers.json"),
-        &serde_json::to_string_pretty(&answers).unwrap_or_default(),
-    )?;
-    Ok(())
+    write_diagnosis_material(out, &machine, seed)
 }

@@ -8,7 +8,7 @@
 //! receptances and machine.json), worn_milling/, diagnose/<effect>/ with answers.json,
 //! and a README.md describing it. Seed 1 and the nominal machine unless told otherwise.
 
-use lumped::effects::{case, visible, Effect};
+use lumped::effects::{visible, write_diagnosis_material};
 use lumped::excitation::{sweep, Milling, Sweep};
 use lumped::frf::linspace;
 use lumped::measure::{impact_record, milling_clean, milling_comments, run, unit, Setup};
@@ -253,36 +253,8 @@ fn dump(out: &Path, seed: u64, random: bool) -> Result<(), lumped::Error> {
     )?;
 
     // a healthy impact test at the centre (where the hidden effects are): a one-pose twin
-    // to judge the detectors on, apart from the campaign's interpolation
-    for (a, name) in [(0usize, "x"), (1, "y")] {
-        impact_record(
-            &machine,
-            &setup,
-            CENTRE,
-            a,
-            5,
-            2.0,
-            seed * 1000 + 700 + a as u64,
-        )
-        .write_csv(&out.join(format!("centre_impact/imp_{name}.csv")))?;
-    }
-
-    // hidden effects
-    let cases: Vec<_> = Effect::ALL
-        .par_iter()
-        .map(|&e| (e, case(&machine, e, seed)))
-        .collect();
-    let mut answers = serde_json::Map::new();
-    for (e, c) in cases {
-        for (name, r) in &c.records {
-            r.write_csv(&out.join("diagnose").join(e.folder()).join(name))?;
-        }
-        answers.insert(e.folder().into(), c.answer.clone());
-    }
-    write_atomic(
-        &out.join("diagnose/answers.json"),
-        &serde_json::to_string_pretty(&answers).unwrap_or_default(),
-    )?;
+    // to judge the detectors on, apart from the campaign's interpolation; the hidden effects
+    write_diagnosis_material(out, &machine, seed)?;
     write_atomic(&out.join("README.md"), &readme(seed, random, factor))?;
     eprintln!("done in {:.1} s", t0.elapsed().as_secs_f64());
     Ok(())

@@ -679,3 +679,43 @@ fn mill_records(
         })
         .collect()
 }
+
+/// Writes the diagnosis material of `machine` under `out`: a healthy impact test at the
+/// centre (`centre_impact/imp_{x,y}.csv`, 5 hits each: a one-pose twin) and every effect's
+/// records (`diagnose/<effect>/`) with their answers (`diagnose/answers.json`), the
+/// effects' parameters drawn from `seed`. (The `dump` and `cases` examples.)
+pub fn write_diagnosis_material(
+    out: &std::path::Path,
+    machine: &crate::structure::Machine,
+    seed: u64,
+) -> Result<(), crate::Error> {
+    use rayon::prelude::*;
+    let setup = crate::measure::Setup::impact();
+    for (a, name) in [(0usize, "x"), (1, "y")] {
+        crate::measure::impact_record(
+            machine,
+            &setup,
+            CENTRE,
+            a,
+            5,
+            2.0,
+            seed * 1000 + 700 + a as u64,
+        )
+        .write_csv(&out.join(format!("centre_impact/imp_{name}.csv")))?;
+    }
+    let cases: Vec<_> = Effect::ALL
+        .par_iter()
+        .map(|&e| (e, case(machine, e, seed)))
+        .collect();
+    let mut answers = serde_json::Map::new();
+    for (e, c) in cases {
+        for (name, r) in &c.records {
+            r.write_csv(&out.join("diagnose").join(e.folder()).join(name))?;
+        }
+        answers.insert(e.folder().into(), c.answer.clone());
+    }
+    crate::record::write_atomic(
+        &out.join("diagnose/answers.json"),
+        &serde_json::to_string_pretty(&answers).unwrap_or_default(),
+    )
+}
