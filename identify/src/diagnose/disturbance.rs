@@ -80,8 +80,13 @@ pub(super) fn cand_disturbance(
     parts: &[TimeSeries],
     incoherent: Option<&IncoherentLines>,
 ) -> Option<Cand> {
-    let ts = parts.iter().max_by_key(|p| p.len())?;
-    let y = simulate_as_measured(twin, ts).ok()?;
+    // every part's residual, simulated once (the lines are found in the longest part;
+    // each part's tones are fitted on its own)
+    let residual: Vec<Option<Vec<(Axis, Vec<f64>)>>> =
+        parts.iter().map(|p| residuals(twin, p)).collect();
+    let longest = (0..parts.len()).max_by_key(|&i| parts[i].len())?;
+    let ts = &parts[longest];
+    let res_longest = residual[longest].as_ref()?;
     let n = ts.len();
     let nfft = n.next_power_of_two();
     let fft = FftPlanner::<f64>::new().plan_fft_forward(nfft);
@@ -123,9 +128,8 @@ pub(super) fn cand_disturbance(
     // not coherent with the measured forces (multiple coherence, Welch over all parts)
     // stands far above that of the neighbouring lines. A model error at a line the
     // force drives stays coherent with the force; a tone from outside does not.
-    for a in Axis::ALL {
-        let Some(m) = ts.response(a) else { continue };
-        let res: Vec<f64> = m.iter().zip(&y[a.index()]).map(|(a, b)| a - b).collect();
+    for (a, res) in res_longest {
+        let a = *a;
         let win: Vec<f64> = (0..n)
             .map(|i| 0.5 - 0.5 * (2.0 * PI * i as f64 / n as f64).cos())
             .collect();
@@ -194,9 +198,10 @@ pub(super) fn cand_disturbance(
     // record's held-out part is predicted with the tones fitted to its own building part
     let per_record: Vec<Twin> = parts
         .iter()
-        .map(|p| {
+        .zip(&residual)
+        .map(|(p, res)| {
             let mut t = twin.clone();
-            if let Some(res) = residuals(twin, p) {
+            if let Some(res) = res {
                 for sn in &sines {
                     let r = res.iter().find(|(a, _)| *a == sn.axis);
                     if let Some((a, b)) = r.and_then(|(_, r)| tone(r, p, sn.freq_hz)) {
