@@ -82,8 +82,7 @@ pub(super) fn cand_disturbance(
 ) -> Option<Cand> {
     // every part's residual, simulated once (the lines are found in the longest part;
     // each part's tones are fitted on its own)
-    let residual: Vec<Option<Vec<(Axis, Vec<f64>)>>> =
-        parts.iter().map(|p| residuals(twin, p)).collect();
+    let residual: Vec<Option<AxisResiduals>> = parts.iter().map(|p| residuals(twin, p)).collect();
     let longest = (0..parts.len()).max_by_key(|&i| parts[i].len())?;
     let ts = &parts[longest];
     let res_longest = residual[longest].as_ref()?;
@@ -235,9 +234,12 @@ pub(super) fn cand_disturbance(
     })
 }
 
+/// Per response axis, the measured response less the simulated one.
+type AxisResiduals = Vec<(Axis, Vec<f64>)>;
+
 /// The response of `ts` less `twin`'s simulation of it, per response axis, in the
 /// record's response quantity.
-fn residuals(twin: &Twin, ts: &TimeSeries) -> Option<Vec<(Axis, Vec<f64>)>> {
+fn residuals(twin: &Twin, ts: &TimeSeries) -> Option<AxisResiduals> {
     let y = simulate_as_measured(twin, ts).ok()?;
     Some(
         Axis::ALL
