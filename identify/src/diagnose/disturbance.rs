@@ -168,7 +168,7 @@ pub(super) fn cand_disturbance(
             if strength < DISTURBANCE_MIN_STRENGTH {
                 continue;
             }
-            let Some((ca, cb)) = tone(&res, ts, fhz) else {
+            let Some((ca, cb)) = tone(res, ts, fhz) else {
                 continue;
             };
             sines.push(Sinusoid {
