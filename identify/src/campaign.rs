@@ -98,6 +98,7 @@ pub struct CampaignResult {
     pub diagrams: Vec<StabilizationDiagram>,
 }
 
+#[derive(Clone)]
 struct PoseFit {
     pose: [f64; 3],
     frf: Frf,
@@ -111,6 +112,91 @@ struct PoseFit {
     sources: Vec<String>,
     warnings: Vec<String>,
     diagram: StabilizationDiagram,
+    /// With the force directions fitted separately ([`separate_directions`]): one
+    /// model per direction, over that direction's channels of `fitted`.
+    parts: Vec<DirectionFit>,
+}
+
+/// The fit of one force direction of a pose (see [`separate_directions`]).
+#[derive(Clone)]
+struct DirectionFit {
+    fitted: Frf,
+    model: ModalModel,
+    diagram: StabilizationDiagram,
+}
+
+/// The force directions a campaign fits with separate poles: all of them when every
+/// cross channel between two hammered directions carries no coherent response at most
+/// poses (the directions do not couple, as on a machine whose x and y modes are
+/// independent), none otherwise. Common poles over decoupled directions must serve
+/// modes of both: where an x mode and a y mode lie close together (137 Hz in x and
+/// 137 Hz in y), one pole pair lands between them and fits neither, and the stopping
+/// rule, judging all channels at once, ends before the order both directions need.
+fn separate_directions(
+    plans: &[PosePlan],
+    excluded: &[crate::axis::Channel],
+) -> Vec<crate::axis::Axis> {
+    let mut inputs: Vec<crate::axis::Axis> = plans
+        .iter()
+        .flat_map(|p| p.used_channels())
+        .map(|c| c.input)
+        .collect();
+    inputs.sort_by_key(|a| a.index());
+    inputs.dedup();
+    if inputs.len() < 2 {
+        return Vec::new();
+    }
+    let measured = |c: crate::axis::Channel| {
+        plans
+            .iter()
+            .any(|p| p.channels.iter().any(|d| d.channel == c))
+    };
+    let mut any_cross = false;
+    for &a in &inputs {
+        for &b in &inputs {
+            if a == b {
+                continue;
+            }
+            let c = crate::axis::Channel {
+                output: b,
+                input: a,
+            };
+            if !measured(c) {
+                continue;
+            }
+            any_cross = true;
+            if !excluded.contains(&c) {
+                return Vec::new();
+            }
+        }
+    }
+    if any_cross {
+        inputs
+    } else {
+        Vec::new()
+    }
+}
+
+/// One model of the modes of every part, in part order (the modes of part 0, then of
+/// part 1, ...), each channel's numerators taken from the part that has the channel and
+/// zero for the other parts' modes.
+fn concat_models(parts: &[ModalModel]) -> ModalModel {
+    let modes: Vec<crate::model::Mode> = parts.iter().flat_map(|p| p.modes.clone()).collect();
+    let mut channels = Vec::new();
+    let mut offset = 0;
+    for p in parts {
+        for cm in &p.channels {
+            let mut num = vec![crate::model::ModeNum { b0: 0.0, b1: 0.0 }; modes.len()];
+            num[offset..offset + p.modes.len()].copy_from_slice(&cm.num);
+            channels.push(crate::model::ChannelModel {
+                channel: cm.channel,
+                num,
+                d: cm.d,
+            });
+        }
+        offset += p.modes.len();
+    }
+    ModalModel { modes, channels }
 }
 
 /// Below this fit \[%\] of a channel against its measured FRF in the band, the campaign
@@ -514,10 +600,42 @@ pub fn identify_frfs(
         .map(|m| plan_pose(&m.frf, &m.facts, opts.fit.band_hz, &[]))
         .collect();
     let excluded = campaign_exclusions(&first);
+    // one band for the campaign: poses whose own bands start at 42 Hz and at 138 Hz see
+    // different modes (the 73 Hz mode is in one band, a mass line in the other), and
+    // tracking cannot pair modes that only some poses hold
+    let common_band = if total > 1 {
+        let mut lo: Vec<f64> = first.iter().map(|p| p.band_hz[0]).collect();
+        let mut hi: Vec<f64> = first.iter().map(|p| p.band_hz[1]).collect();
+        lo.sort_by(f64::total_cmp);
+        hi.sort_by(f64::total_cmp);
+        Some((lo[lo.len() / 2], hi[(hi.len() - 1) / 2], "the median"))
+    } else {
+        None
+    };
+    let directions = if total > 1 && opts.fit.n_modes.is_none() {
+        separate_directions(&first, &excluded)
+    } else {
+        Vec::new()
+    };
     let fits: Vec<Result<PoseFit>> = measured
         .into_par_iter()
         .map(|m| {
-            let plan = plan_pose(&m.frf, &m.facts, opts.fit.band_hz, &excluded);
+            let mut plan = plan_pose(&m.frf, &m.facts, opts.fit.band_hz, &excluded);
+            if let Some((lo, hi, q)) = common_band {
+                let (a, b) = (
+                    lo.max(*m.frf.freqs_hz.first().unwrap_or(&lo)),
+                    hi.min(*m.frf.freqs_hz.last().unwrap_or(&hi)),
+                );
+                if a < b && (a, b) != (plan.band_hz[0], plan.band_hz[1]) {
+                    plan.band_evidence.push(format!(
+                        "campaign: one band for every pose, {a:.1}-{b:.1} Hz ({q} of the \
+                         poses' own bands; this pose's own {:.1}-{:.1} Hz), so every pose \
+                         model holds the same modes",
+                        plan.band_hz[0], plan.band_hz[1]
+                    ));
+                    plan.band_hz = [a, b];
+                }
+            }
             let fitted = select_channels(&m.frf, &plan.used_channels());
             let options = FitOptions {
                 band_hz: Some((plan.band_hz[0], plan.band_hz[1])),
@@ -534,12 +652,77 @@ pub fn identify_frfs(
             } else {
                 PerInput::Never
             };
-            let (res, plan) = fit_pose(&fitted, &options, plan, opts, m.pose, per_input)?;
-            let mut model = res.model;
             let mut warnings = m.warnings;
-            if let Some(s) = m.exp_window_sigma {
-                model.shift_poles(s);
-                warnings.extend(repair_window_damping(&mut model, s));
+            let mut parts = Vec::new();
+            let (res, plan) = if directions.is_empty() {
+                fit_pose(&fitted, &options, plan, opts, m.pose, per_input)?
+            } else {
+                // one fit per force direction, tracked apart (see separate_directions)
+                let mut merged_plan = plan.clone();
+                merged_plan.alternatives.push(format!(
+                    "force directions {} fitted with separate poles: the cross channels \
+                     between them carry no coherent response at most poses (the directions \
+                     do not couple)",
+                    directions
+                        .iter()
+                        .map(|a| a.to_string())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ));
+                let mut first_res = None;
+                for a in &directions {
+                    let chans: Vec<crate::axis::Channel> = fitted
+                        .channels
+                        .iter()
+                        .map(|c| c.channel)
+                        .filter(|c| c.input == *a)
+                        .collect();
+                    if chans.is_empty() {
+                        continue;
+                    }
+                    let sub = select_channels(&fitted, &chans);
+                    let sub_options = FitOptions {
+                        direct_at_noise: true,
+                        ..options.clone()
+                    };
+                    let (r, p) =
+                        fit_pose(&sub, &sub_options, plan.clone(), opts, m.pose, per_input)?;
+                    merged_plan.alternatives.extend(
+                        p.alternatives
+                            .into_iter()
+                            .map(|t| format!("force {a}: {t}")),
+                    );
+                    let mut model = r.model.clone();
+                    if let Some(s) = m.exp_window_sigma {
+                        model.shift_poles(s);
+                        warnings.extend(repair_window_damping(&mut model, s));
+                    }
+                    parts.push(DirectionFit {
+                        fitted: sub,
+                        model,
+                        diagram: r.diagram.clone(),
+                    });
+                    if first_res.is_none() {
+                        first_res = Some(r);
+                    }
+                }
+                let mut r = first_res.ok_or_else(|| {
+                    Error::BadInput(format!(
+                        "pose {}: no channel to fit",
+                        crate::axis::PoseText(m.pose)
+                    ))
+                })?;
+                // the merged model is already unwindowed: no second shift below
+                r.model = concat_models(&parts.iter().map(|p| p.model.clone()).collect::<Vec<_>>());
+                r.automatic_order = parts.len() > 1 || r.automatic_order;
+                (r, merged_plan)
+            };
+            let mut model = res.model;
+            if parts.is_empty() {
+                if let Some(s) = m.exp_window_sigma {
+                    model.shift_poles(s);
+                    warnings.extend(repair_window_damping(&mut model, s));
+                }
             }
             let n = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
             progress(n, total);
@@ -560,6 +743,7 @@ pub fn identify_frfs(
                 sources: m.sources,
                 warnings,
                 diagram: res.diagram,
+                parts,
             })
         })
         .collect();
@@ -577,9 +761,45 @@ pub fn identify_frfs(
                 .map(move |w| format!("pose {}: {w}", crate::axis::PoseText(f.pose)))
         })
         .collect();
-    if fits.len() > 1 {
+    if fits.len() > 1
+        && !directions.is_empty()
+        && fits.iter().all(|f| f.parts.len() == fits[0].parts.len())
+    {
+        // each force direction tracked on its own, then the parts joined again
+        for d in 0..fits[0].parts.len() {
+            let mut sub: Vec<PoseFit> = fits
+                .iter()
+                .map(|f| PoseFit {
+                    frf: f.parts[d].fitted.clone(),
+                    fitted: f.parts[d].fitted.clone(),
+                    model: f.parts[d].model.clone(),
+                    diagram: f.parts[d].diagram.clone(),
+                    parts: Vec::new(),
+                    warnings: Vec::new(),
+                    ..f.clone()
+                })
+                .collect();
+            warnings.extend(track_modes(&mut sub)?);
+            warnings.extend(resplit_coincident_modes(&mut sub));
+            let notes = common_residual_poles(&mut sub)?;
+            for f in fits.iter_mut() {
+                f.plan.alternatives.extend(notes.iter().cloned());
+            }
+            for (f, s) in fits.iter_mut().zip(sub) {
+                f.parts[d].model = s.model;
+            }
+        }
+        for f in fits.iter_mut() {
+            f.model = concat_models(&f.parts.iter().map(|p| p.model.clone()).collect::<Vec<_>>());
+            f.order.modes = f.model.modes.len();
+        }
+    } else if fits.len() > 1 {
         warnings.extend(track_modes(&mut fits)?);
         warnings.extend(resplit_coincident_modes(&mut fits));
+        let notes = common_residual_poles(&mut fits)?;
+        for f in fits.iter_mut() {
+            f.plan.alternatives.extend(notes.iter().cloned());
+        }
     }
     let diagrams: Vec<StabilizationDiagram> = fits.iter().map(|f| f.diagram.clone()).collect();
     let poses: Vec<PoseModel> = fits
@@ -700,6 +920,87 @@ pub fn match_modes(reference: &ModalModel, m: &ModalModel) -> ModalModel {
         }
     }
     out
+}
+
+/// A tracked mode counts as a residual term (the tail of modes outside the band, or a
+/// pair of real poles) when at some pose its natural frequency lies this far outside the
+/// pose's band (a factor) or its damping ratio exceeds [`RESIDUAL_ZETA`].
+const RESIDUAL_BAND_FACTOR: f64 = 0.9;
+/// See [`RESIDUAL_BAND_FACTOR`].
+const RESIDUAL_ZETA: f64 = 0.5;
+
+/// Pole pairs that stand for what lies outside the band (the mass line of the modes
+/// below it, the stiffness of those above) are fixed only loosely by the data: their
+/// frequency and damping wander from pose to pose while their sum in the band stays
+/// put, and interpolating such parameters between poses gives nonsense (a pole at 7 Hz
+/// at one pose, at 84 Hz at the next). Each such tracked mode gets one pole for the whole
+/// campaign (the median over the poses), and every pose's numerators are solved anew
+/// for it: the band response is linear in the numerators, so it interpolates smoothly.
+fn common_residual_poles(fits: &mut [PoseFit]) -> Result<Vec<String>> {
+    let mut notes = Vec::new();
+    let n_modes = fits.first().map_or(0, |f| f.model.modes.len());
+    if fits.len() < 2 || fits.iter().any(|f| f.model.modes.len() != n_modes) {
+        return Ok(notes);
+    }
+    let bands: Vec<(f64, f64)> = fits
+        .iter()
+        .map(|f| band_of(&f.frf, &f.options).pose)
+        .collect();
+    let residual: Vec<usize> = (0..n_modes)
+        .filter(|&k| {
+            fits.iter().zip(&bands).any(|(f, b)| {
+                let m = f.model.modes[k];
+                let hz = m.wn / (2.0 * std::f64::consts::PI);
+                hz < RESIDUAL_BAND_FACTOR * b.0
+                    || hz * RESIDUAL_BAND_FACTOR > b.1
+                    || m.zeta > RESIDUAL_ZETA
+            })
+        })
+        .collect();
+    if residual.is_empty() {
+        return Ok(notes);
+    }
+    let median = |mut v: Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    let mut common = Vec::new();
+    for &k in &residual {
+        let wn = median(fits.iter().map(|f| f.model.modes[k].wn.ln()).collect()).exp();
+        let zeta = median(fits.iter().map(|f| f.model.modes[k].zeta).collect()).max(0.02);
+        common.push((k, wn, zeta));
+    }
+    for f in fits.iter_mut() {
+        let mut m = f.model.clone();
+        for &(k, wn, zeta) in &common {
+            m.modes[k].wn = wn;
+            m.modes[k].zeta = zeta;
+        }
+        if let Some(s) = f.sigma {
+            m.shift_poles(-s);
+        }
+        let w = crate::rational_fit::weights(&f.fitted, &f.options);
+        let mut solved = crate::rational_fit::solve_numerators(&m, &f.fitted, &w, &f.options)?;
+        if let Some(s) = f.sigma {
+            solved.shift_poles(s);
+        }
+        f.model = solved;
+    }
+    notes.push(format!(
+        "{} pole pair(s) stand for modes outside the band ({}): one pole for every pose, \
+         numerators per pose",
+        common.len(),
+        common
+            .iter()
+            .map(|&(_, wn, z)| format!(
+                "{:.0} Hz / {:.0} %",
+                wn / (2.0 * std::f64::consts::PI),
+                100.0 * z
+            ))
+            .collect::<Vec<_>>()
+            .join(", ")
+    ));
+    Ok(notes)
 }
 
 /// Makes every pose model carry the same modes in the same order.

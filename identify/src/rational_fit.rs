@@ -132,6 +132,13 @@ pub struct FitOptions {
     pub sharp_peaks: bool,
     /// Settings of the stabilization diagram.
     pub stabilization: StabilizationOptions,
+    /// Automatic order: the residual of every direct channel (response along its force)
+    /// must also be within twice that channel's own noise before the order counts as
+    /// enough, however noisy the cross channels fitted with it are (default false; a
+    /// campaign whose force directions are fitted apart sets it: there each fit holds one
+    /// direct channel and the cross channels of that force, whose noise would otherwise
+    /// set the floor).
+    pub direct_at_noise: bool,
 }
 
 impl Default for FitOptions {
@@ -150,6 +157,7 @@ impl Default for FitOptions {
             white_residual: 0.5,
             sharp_peaks: true,
             stabilization: StabilizationOptions::default(),
+            direct_at_noise: false,
         }
     }
 }
@@ -297,6 +305,24 @@ pub fn refine_from(
     finish(&prep, &sol)
 }
 
+/// The numerators (and residual terms) of `frf` for the modes of `model` held fixed: the
+/// linear least-squares part of [`refine_from`] alone, same weights.
+pub fn solve_numerators(
+    model: &ModalModel,
+    frf: &Frf,
+    weights: &[Vec<f64>],
+    opts: &FitOptions,
+) -> Result<ModalModel> {
+    let prep = Prepared::with_weights(frf, opts, Some(weights))?;
+    let modes = prep.scale_modes(&model.modes);
+    let sol = varpro::solve_linear(&prep, &modes).ok_or_else(|| {
+        Error::Numerical(
+            "the numerator least squares is singular: too few usable lines for the order".into(),
+        )
+    })?;
+    finish(&prep, &sol)
+}
+
 /// Starting poles (scaled, one per pair): the physical ones first, then lightly damped
 /// pairs spread linearly over the band gaps.
 fn start_poles(prep: &Prepared, physical: &[Complex64], n: usize) -> Vec<Complex64> {
@@ -360,6 +386,33 @@ fn noise_per_line(prep: &Prepared) -> Option<Vec<f64>> {
         }
     }
     any.then_some(acc)
+}
+
+/// Weighted noise energy per channel and line implied by the coherence (zero without
+/// coherence); `None` when no channel has coherence.
+fn noise_lines_per_channel(prep: &Prepared) -> Option<Vec<Vec<f64>>> {
+    let mut any = false;
+    let out = prep
+        .band
+        .channels
+        .iter()
+        .enumerate()
+        .map(|(ci, ch)| {
+            let mut acc = vec![0.0; prep.n_lines()];
+            if let Some(g) = &ch.coherence {
+                any = true;
+                for (k, &g) in g.iter().enumerate() {
+                    let w = prep.w[ci][k];
+                    if w > 0.0 {
+                        let g = g.clamp(1e-6, 1.0);
+                        acc[k] = w * w * prep.h[ci][k].norm_sqr() * (1.0 - g) / g;
+                    }
+                }
+            }
+            acc
+        })
+        .collect();
+    any.then_some(out)
 }
 
 /// Lines on each side of the windows in which [`local_excess`] compares the residual
@@ -464,9 +517,30 @@ fn auto_order(
         varpro::lag_one_correlation(prep, s) < opts.white_residual
             && noise.is_none_or(|nf| s.cost <= 2.0 * nf)
     };
+    // the direct channels (response along the force) at their own noise: a noisier cross
+    // channel in the same fit must not lend them its noise floor
+    let direct_noise: Option<Vec<(usize, f64)>> = noise_lines_per_channel(prep).map(|nl| {
+        nl.iter()
+            .enumerate()
+            .filter(|(ci, _)| prep.channels[*ci].output == prep.channels[*ci].input)
+            .map(|(ci, v)| (ci, v.iter().sum::<f64>()))
+            .collect()
+    });
+    let direct_ok = |s: &Solved| {
+        if !opts.direct_at_noise {
+            return true;
+        }
+        direct_noise.as_ref().is_none_or(|dn| {
+            let r = varpro::residuals(prep, s);
+            dn.iter().all(|&(ci, n)| {
+                let c: f64 = r[ci].iter().map(|v| v.norm_sqr()).sum();
+                c <= 2.0 * n
+            })
+        })
+    };
     let done = |s: &Solved| {
         rel(s) <= opts.target_residual
-            || ((noise.is_some_and(|nf| s.cost <= nf) || white(s)) && local_ok(s))
+            || ((noise.is_some_and(|nf| s.cost <= nf) || white(s)) && local_ok(s) && direct_ok(s))
     };
     let mut best = fit_order(prep, start_poles(prep, physical, n0), opts, report)?;
     // Prune diagram modes that only fit noise: drop the weakest while the residual
