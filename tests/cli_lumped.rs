@@ -94,3 +94,106 @@ fn lumped_one_pose_twin_diagnoses_healthy_disturbance_and_delay() {
         }
     }
 }
+
+/// Fit [%] of `twin` at `pose` against the generator's receptance with the campaign's
+/// accelerometer mass, channel out/in, on `band`.
+fn twin_vs_loaded_truth(
+    twin: &identify::twin::Twin,
+    machine: &Machine,
+    pose: [f64; 3],
+    (out, inp): (usize, usize),
+    band: (f64, f64),
+    tip_mass: f64,
+) -> f64 {
+    use identify::axis::{Axis, Channel};
+    let freqs = lumped::frf::linspace(band.0, band.1, 600);
+    let truth = machine.analytic_frf_loaded(pose, &freqs, tip_mass);
+    let m = twin.model_at(pose).expect("model at pose");
+    let ax = |i: usize| [Axis::X, Axis::Y, Axis::Z][i];
+    let ci = m
+        .channel_index(Channel {
+            output: ax(out),
+            input: ax(inp),
+        })
+        .expect("channel in the twin");
+    let t = truth.channel(out, inp);
+    let e: Vec<_> = freqs.iter().map(|&f| m.eval_hz(ci, f)).collect();
+    identify::frf::fit_percent(&t, &e)
+}
+
+/// An 18-pose impact campaign on the lumped mill (3x3x2 grid, hammer along x and along
+/// y, accelerations, cross channels without coherent response), identified with the
+/// defaults, judged at the measured and at three unmeasured poses against the analytic
+/// receptance (xx, yy, 150-2500 Hz: below, the accelerometer's noise hides the
+/// response). The x and y directions do not couple: identify must fit and track them
+/// apart (with common poles the measured poses fell to 74 % worst, 86 % mean).
+#[test]
+fn lumped_campaign_twin_fits_the_truth_at_measured_and_unmeasured_poses() {
+    use rayon::prelude::*;
+    let dir = tmp();
+    let machine = Machine::nominal();
+    let setup = Setup::impact();
+    let mut grid = Vec::new();
+    for x in [0.1, 0.4, 0.7] {
+        for y in [0.1, 0.3, 0.5] {
+            for z in [0.05, 0.25] {
+                grid.push([x, y, z]);
+            }
+        }
+    }
+    let jobs: Vec<(usize, usize)> = (0..grid.len()).flat_map(|k| [(k, 0), (k, 1)]).collect();
+    let files: Vec<PathBuf> = jobs
+        .par_iter()
+        .map(|&(k, a)| {
+            let p = dir.path().join(format!("g{k:02}_{}.csv", ["x", "y"][a]));
+            impact_record(
+                &machine,
+                &setup,
+                grid[k],
+                a,
+                5,
+                2.0,
+                1000 + 2 * k as u64 + a as u64,
+            )
+            .write_csv(&p)
+            .expect("write");
+            p
+        })
+        .collect();
+    let twin_path = dir.path().join("twin.json");
+    let mut args = vec!["identify"];
+    args.extend(files.iter().map(|p| s(p)));
+    args.extend(["--out", s(&twin_path)]);
+    let o = mtwin(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout).to_string() + &stderr(&o);
+    assert!(
+        text.contains("fitted with separate poles"),
+        "the plan names the split of the force directions:\n{text}"
+    );
+    let twin = identify::twin::Twin::load(&twin_path).expect("twin loads");
+    let band = (150.0, 2500.0);
+    let score = |p: [f64; 3]| {
+        [(0, 0), (1, 1)]
+            .iter()
+            .map(|&c| twin_vs_loaded_truth(&twin, &machine, p, c, band, setup.tip_mass))
+            .fold(f64::INFINITY, f64::min)
+    };
+    let measured: Vec<f64> = grid.iter().map(|&p| score(p)).collect();
+    let unmeasured: Vec<f64> = [[0.25, 0.2, 0.15], [0.55, 0.45, 0.1], [0.6, 0.15, 0.2]]
+        .iter()
+        .map(|&p| score(p))
+        .collect();
+    let mean = measured.iter().sum::<f64>() / measured.len() as f64;
+    let worst = measured.iter().cloned().fold(f64::INFINITY, f64::min);
+    let u_worst = unmeasured.iter().cloned().fold(f64::INFINITY, f64::min);
+    eprintln!(
+        "lumped campaign vs truth: measured worst {worst:.2} mean {mean:.2} %, unmeasured {unmeasured:.2?}"
+    );
+    assert!(mean >= 90.0, "measured mean {mean:.2} % ({measured:.1?})");
+    assert!(
+        worst >= 80.0,
+        "measured worst {worst:.2} % ({measured:.1?})"
+    );
+    assert!(u_worst >= 75.0, "unmeasured {unmeasured:.2?}");
+}

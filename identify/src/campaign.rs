@@ -928,9 +928,32 @@ pub fn match_modes(reference: &ModalModel, m: &ModalModel) -> ModalModel {
 const RESIDUAL_BAND_FACTOR: f64 = 0.9;
 /// See [`RESIDUAL_BAND_FACTOR`].
 const RESIDUAL_ZETA: f64 = 0.5;
+/// A tracked mode whose natural frequency departs from its best affine trend over the
+/// poses (`ln ωn ≈ a + b·x + c·y + d·z`) by more than this (relative) at some pose is
+/// not one physical mode followed across the workspace: tracking paired different modes
+/// at different poses (a 485 Hz mode at some, a 562 Hz one at others: 12 %). It is
+/// treated as a residual term too: one pole, numerators per pose. Physical modes that
+/// shift by 27 % over the workspace follow their trend within 1.7 % (vmachine).
+const RESIDUAL_IRREGULAR: f64 = 0.05;
+
+/// The largest departure of mode `k`'s `ln ωn` from its least-squares affine trend over
+/// the poses (0 with fewer than 6 poses: too few to tell).
+fn irregular_over_poses(fits: &[PoseFit], k: usize) -> f64 {
+    let n = fits.len();
+    if n < 6 {
+        return 0.0;
+    }
+    let a = nalgebra::DMatrix::from_fn(n, 4, |i, j| if j == 0 { 1.0 } else { fits[i].pose[j - 1] });
+    let b = nalgebra::DVector::from_fn(n, |i, _| fits[i].model.modes[k].wn.max(1e-300).ln());
+    let Ok(c) = a.clone().svd(true, true).solve(&b, 1e-12) else {
+        return 0.0;
+    };
+    (b - a * c).amax()
+}
 
 /// Pole pairs that stand for what lies outside the band (the mass line of the modes
-/// below it, the stiffness of those above) are fixed only loosely by the data: their
+/// below it, the stiffness of those above), and tracked modes that are not one physical
+/// mode ([`RESIDUAL_IRREGULAR`]), are fixed only loosely by the data: their
 /// frequency and damping wander from pose to pose while their sum in the band stays
 /// put, and interpolating such parameters between poses gives nonsense (a pole at 7 Hz
 /// at one pose, at 84 Hz at the next). Each such tracked mode gets one pole for the whole
@@ -948,13 +971,18 @@ fn common_residual_poles(fits: &mut [PoseFit]) -> Result<Vec<String>> {
         .collect();
     let residual: Vec<usize> = (0..n_modes)
         .filter(|&k| {
-            fits.iter().zip(&bands).any(|(f, b)| {
-                let m = f.model.modes[k];
-                let hz = m.wn / (2.0 * std::f64::consts::PI);
-                hz < RESIDUAL_BAND_FACTOR * b.0
-                    || hz * RESIDUAL_BAND_FACTOR > b.1
-                    || m.zeta > RESIDUAL_ZETA
-            })
+            let out = fits
+                .iter()
+                .zip(&bands)
+                .filter(|(f, b)| {
+                    let m = f.model.modes[k];
+                    let hz = m.wn / (2.0 * std::f64::consts::PI);
+                    hz < RESIDUAL_BAND_FACTOR * b.0
+                        || hz * RESIDUAL_BAND_FACTOR > b.1
+                        || m.zeta > RESIDUAL_ZETA
+                })
+                .count();
+            out > 0 || irregular_over_poses(fits, k) > RESIDUAL_IRREGULAR
         })
         .collect();
     if residual.is_empty() {
@@ -1023,7 +1051,12 @@ fn track_modes(fits: &mut [PoseFit]) -> Result<Vec<String>> {
             best = (occ, c);
         }
     }
+    // the most common count: the largest (24 pairs at one pose where the others hold 8)
+    // carries noise pairs to every pose, and interpolation between them fails
     let m = best.1;
+    if std::env::var_os("MTWIN_DEBUG_FIT").is_some() {
+        eprintln!("tracking: own orders {counts:?}, common {m}");
+    }
     let mut centre = [0.0; 3];
     for f in fits.iter() {
         for a in 0..3 {
