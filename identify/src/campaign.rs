@@ -530,6 +530,7 @@ pub fn identify_campaign(
             Ok(MeasuredFrf {
                 facts: EstimateFacts {
                     excitation_band_hz: est.excitation_band_hz,
+                    coherence_dof: est.coherence_dof,
                     averages: Some(est.hits_used),
                     method: est.method.clone(),
                     measured_as: recs.first().and_then(|r| match r.response_kind {

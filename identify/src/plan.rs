@@ -202,6 +202,9 @@ pub struct EstimateFacts {
     pub method: String,
     /// What the response sensor measured, when known.
     pub measured_as: Option<MeasuredAs>,
+    /// Lines behind each coherence value when the coherence comes from the FRF's
+    /// line-to-line scatter (a single chirp record) rather than from averages.
+    pub coherence_dof: Option<usize>,
 }
 
 /// Mean of `v` over the lines within ±`octaves` of each line (two pointers over the
@@ -263,13 +266,26 @@ pub fn plan_pose(
         if a.max(lo) < b.min(hi) {
             lo = lo.max(a);
             hi = hi.min(b);
-            plan.band_evidence
-                .push(format!("force within 20 dB of its peak: {a:.1}-{b:.1} Hz"));
+            plan.band_evidence.push(if facts.coherence_dof.is_some() {
+                format!(
+                    "force within 40 dB of its peak (one sweep record, spectrum smoothed over \
+                     ±1/12 octave): {a:.1}-{b:.1} Hz"
+                )
+            } else {
+                format!("force within 20 dB of its peak: {a:.1}-{b:.1} Hz")
+            });
         }
     }
     // channel decisions over the force band
     let in_band: Vec<usize> = (0..f.len()).filter(|&k| f[k] >= lo && f[k] <= hi).collect();
-    let x99 = facts.averages.map(null_coherence_99);
+    let x99 = facts
+        .coherence_dof
+        .or(facts.averages)
+        .map(null_coherence_99);
+    let basis = match facts.coherence_dof {
+        Some(_) => "coherence from the FRF's line-to-line scatter".to_string(),
+        None => format!("{} averages", facts.averages.unwrap_or(0)),
+    };
     let level = |c: &crate::frf::FrfChannel| c.h.iter().map(|v| v.norm()).fold(0.0, f64::max);
     let top = frf.channels.iter().map(level).fold(0.0, f64::max);
     for c in &frf.channels {
@@ -300,14 +316,12 @@ pub fn plan_pose(
                     band_hz: None,
                     reason: if used {
                         format!(
-                            "coherence above the noise-only level {x:.2} ({} averages) on {:.0} % of the lines",
-                            facts.averages.unwrap_or(0),
+                            "coherence above the noise-only level {x:.2} ({basis}) on {:.0} % of the lines",
                             100.0 * frac
                         )
                     } else {
                         format!(
-                            "not identified (no coherent response): coherence above the noise-only level {x:.2} ({} averages) on only {:.0} % of the lines",
-                            facts.averages.unwrap_or(0),
+                            "not identified (no coherent response): coherence above the noise-only level {x:.2} ({basis}) on only {:.0} % of the lines",
                             100.0 * frac
                         )
                     },
