@@ -9,12 +9,21 @@
 //! analytic FRF):
 //! * `a_frf`: H1 of a 60 s noise record of the virtual machine (force x, displacement
 //!   x and y, 1 % sensor noise) with [`estimate_frf`] (automatic Welch length);
-//! * `b_fit`: the 8-mode, 2-channel, 2000-line noisy FRF of `identify/benches/identify.rs`,
+//! * `b_fit`: the 8-mode, 2-channel, 2000-line noisy FRF of `identify/benches/identify.rs`
+//!   without its coherence column (computed from the truth: not a measurement's),
 //!   [`fit_frf`] with the automatic order;
 //! * `c_chain`: the paper's 3-DoF chain, periodic chirp, 0.1 % noise (as
 //!   `examples/paper_3dof.rs`), [`fit_frf`] with the options of that example;
 //! * `d_campaign`: 18 poses (3 × 3 × 2 grid) of noise records, [`identify_campaign`];
-//! * `e_fmu`: one doStep of the slave core (no C layer) on the 3 × 3 × 2 grid twin.
+//! * `e_fmu`: one doStep of the slave core (no C layer) on the 3 × 3 × 2 grid twin;
+//! * `f_refit`: refit of the twin from milling records of the worn machine;
+//! * `g_tryout`: data of an independent generator (shared/data/tryout_gantry), impact
+//!   and sweep, `mtwin identify` defaults, xx against its analytic truth;
+//! * `h_real`: the real impact test of shared/data/pyfrf_impact_hammer, `mtwin identify`
+//!   defaults; the model is written for the script to judge against the raw per-hit H1.
+//!
+//! Every tool gets one untimed warm-up, then the median of [`RUNS`] timed runs
+//! ([`RUNS_SLOW`] in d and f, where a peer takes seconds a run).
 
 use identify::axis::Axis;
 use identify::campaign::{identify_campaign, CampaignOptions};
@@ -35,6 +44,12 @@ use vmachine::excitation::{chirp, noise};
 use vmachine::structure::ModalMachine;
 
 type Res<T> = Result<T, Box<dyn std::error::Error>>;
+
+/// Timed runs of every tool in a case (after one untimed warm-up), mtwin and the Python
+/// peers alike (`scripts/bench_peers.py` reads it from `cases.json`).
+const RUNS: usize = 5;
+/// The same for the cases where a peer takes many seconds a run (d, f).
+const RUNS_SLOW: usize = 3;
 
 /// Median wall time in milliseconds of `runs` calls of `f` (after one warm-up call);
 /// `MTWIN_BENCH_RUNS=N` overrides `runs` (many runs of one case for a profiler).
@@ -151,9 +166,9 @@ fn case_a(dir: &Path, machine: &ModalMachine) -> Res<Value> {
     write_timeseries(&ts, &rec)?;
     let opts = FrfOptions::default();
     let est = estimate_frf(std::slice::from_ref(&rec), &opts)?;
-    let ms = median_ms(31, || estimate_frf(std::slice::from_ref(&rec), &opts));
+    let ms = median_ms(RUNS, || estimate_frf(std::slice::from_ref(&rec), &opts));
     // the segments' FFTs and the line chunks of the spectra on every core
-    let ms_all_cores = on_all_cores(31, || estimate_frf(std::slice::from_ref(&rec), &opts))?;
+    let ms_all_cores = on_all_cores(RUNS, || estimate_frf(std::slice::from_ref(&rec), &opts))?;
     let truth = input_channels(
         machine.frf_at(pose, &est.frf.freqs_hz, &[Axis::X, Axis::Y]),
         Axis::X,
@@ -172,7 +187,7 @@ fn case_a(dir: &Path, machine: &ModalMachine) -> Res<Value> {
     Ok(json!({
         "timeseries": path_str(&ts), "truth": path_str(&truth_path),
         "nfft": nfft, "overlap": opts.overlap, "band": [MACHINE_BAND.0, MACHINE_BAND.1],
-        "method": est.method,
+        "method": est.method, "runs": RUNS,
         "mtwin": {"fit": fit, "ms": ms, "note": "estimate_frf, default options"},
         "mtwin_all_cores": ms_all_cores.map(|m| json!({"ms": m, "threads": all_cores()})),
         "fft_floor": {"ffts": ffts, "ms": floor_ms},
@@ -195,7 +210,7 @@ fn fft_floor(rec: &TimeSeries, nfft: usize, overlap: f64) -> (usize, f64) {
         plan.make_output_vec(),
         plan.make_scratch_vec(),
     );
-    let ms = median_ms(9, || {
+    let ms = median_ms(RUNS, || {
         for s in 0..segs {
             for c in &cols {
                 for ((b, x), w) in buf.iter_mut().zip(&c[s * hop..]).zip(&window) {
@@ -213,7 +228,12 @@ fn fft_floor(rec: &TimeSeries, nfft: usize, overlap: f64) -> (usize, f64) {
 fn case_b(dir: &Path) -> Res<Value> {
     let model = truth8();
     let freqs: Vec<f64> = (0..2000).map(|k| 20.0 + k as f64).collect();
-    let frf = noisy(&model, &freqs, 7);
+    let mut frf = noisy(&model, &freqs, 7);
+    // only what a measurement gives: the coherence of `noisy_frf` is computed from the
+    // noise-free |H| and the true noise level (an oracle the peers do not get)
+    for c in &mut frf.channels {
+        c.coherence = None;
+    }
     let truth = model.frf(&freqs);
     let (fp, tp) = (dir.join("b_frf.csv"), dir.join("b_truth.csv"));
     write_frf_csv(&fp, &frf)?;
@@ -225,13 +245,13 @@ fn case_b(dir: &Path) -> Res<Value> {
     if std::env::var_os("MTWIN_BENCH_VERBOSE").is_some() {
         eprintln!("{}", r.report);
     }
-    let ms = median_ms(7, || fit_frf(&frf, &opts));
+    let ms = median_ms(RUNS, || fit_frf(&frf, &opts));
     println!(
         "b. 8 modes, 2 channels, 2000 lines: {} modes, fit {fit:.3} %, {ms:.1} ms",
         r.model.modes.len()
     );
     Ok(json!({
-        "frf": path_str(&fp), "truth": path_str(&tp), "band": [band.0, band.1],
+        "frf": path_str(&fp), "truth": path_str(&tp), "band": [band.0, band.1], "runs": RUNS,
         "natural_freqs_hz": model.modes.iter().map(Mode::freq_hz).collect::<Vec<_>>(),
         "mtwin": {"fit": fit, "ms": ms, "modes": r.model.modes.len(),
                   "note": "fit_frf, default options (automatic order)"},
@@ -292,14 +312,14 @@ fn case_c(dir: &Path) -> Res<Value> {
     if std::env::var_os("MTWIN_BENCH_VERBOSE").is_some() {
         eprintln!("{}", r.report);
     }
-    let ms = median_ms(7, || fit_frf(&frf, &opts));
+    let ms = median_ms(RUNS, || fit_frf(&frf, &opts));
     println!(
         "c. paper 3-DoF chain ({} lines): {} modes, fit {fit:.3} %, {ms:.1} ms",
         frf.freqs_hz.len(),
         r.model.modes.len()
     );
     Ok(json!({
-        "frf": path_str(&fp), "truth": path_str(&tp), "band": [band.0, band.1],
+        "frf": path_str(&fp), "truth": path_str(&tp), "band": [band.0, band.1], "runs": RUNS,
         "natural_freqs_hz": chain.natural_freqs_hz(),
         "mtwin": {"fit": fit, "ms": ms, "modes": r.model.modes.len(),
                   "note": "fit_frf, automatic order, uniform weight (as examples/paper_3dof.rs)"},
@@ -322,9 +342,9 @@ fn case_d(dir: &Path, machine: &ModalMachine) -> Res<Value> {
         };
     }
     let res = identify_campaign(&recs, &opts, &|_, _| {})?;
-    let ms = median_ms(3, || identify_campaign(&recs, &opts, &|_, _| {}));
+    let ms = median_ms(RUNS_SLOW, || identify_campaign(&recs, &opts, &|_, _| {}));
     // the same campaign on every core (rayon across poses), for the row that shows it
-    let ms_all_cores = on_all_cores(3, || identify_campaign(&recs, &opts, &|_, _| {}))?;
+    let ms_all_cores = on_all_cores(RUNS_SLOW, || identify_campaign(&recs, &opts, &|_, _| {}))?;
     let mut entries = Vec::new();
     let mut worst = f64::INFINITY;
     for (i, (p, rec)) in poses.iter().zip(&recs).enumerate() {
@@ -373,7 +393,7 @@ fn case_d(dir: &Path, machine: &ModalMachine) -> Res<Value> {
         ms_all_cores.map_or("-".into(), |m| format!("{m:.0} ms"))
     );
     Ok(json!({
-        "poses": entries, "nfft": nfft, "overlap": opts.frf.overlap,
+        "poses": entries, "nfft": nfft, "runs": RUNS_SLOW, "overlap": opts.frf.overlap,
         "band": [MACHINE_BAND.0, MACHINE_BAND.1],
         "mtwin": {"fit": worst, "ms": ms,
                   "note": "identify_campaign, default options: H1 + automatic-order fit per pose, mode tracking, leave-one-out interpolation check"},
@@ -421,12 +441,13 @@ fn case_f(dir: &Path, machine: &ModalMachine) -> Res<Value> {
         let mut ev = identify::interpolate::TwinEvaluator::new(&new)?;
         let m = ev.model_at(c).clone();
         let fit = worst_fit(&m, &direct_channels(truth.clone()), band);
-        let ms = median_ms(3, || refit(&twin, &recs, &opts));
+        let ms = median_ms(RUNS_SLOW, || refit(&twin, &recs, &opts));
         println!("f. refit from milling ({name}): worst direct channel {fit:.3} %, {ms:.0} ms");
         out.insert(name.into(), json!({"fit": fit, "ms": ms}));
     }
     Ok(json!({
         "records": files, "truth": path_str(&tp), "band": [band.0, band.1], "nfft": nfft,
+        "runs": RUNS_SLOW,
         "natural_freqs_hz": (0..worn.modes.len()).map(|k| worn.mode_at(k, c).freq_hz()).collect::<Vec<_>>(),
         "mtwin": Value::Object(out),
     }))
@@ -447,7 +468,7 @@ fn case_e(machine: &ModalMachine) -> Res<Value> {
     let dt = 1e-4;
     let mut t = 0.0;
     let mut k = 0u64;
-    let ms = median_ms(5, || -> Result<f64, String> {
+    let ms = median_ms(RUNS, || -> Result<f64, String> {
         let mut y = [0.0; 2];
         for _ in 0..steps {
             k += 1;
@@ -462,8 +483,86 @@ fn case_e(machine: &ModalMachine) -> Res<Value> {
     let us = ms * 1e3 / steps as f64;
     println!("e. FMU doStep (slave core, moving pose, 9 modes, 2 axes): {us:.3} us");
     Ok(
-        json!({"mtwin": {"us_per_step": us, "ms": ms, "steps": steps,
+        json!({"runs": RUNS, "mtwin": {"us_per_step": us, "ms": ms, "steps": steps,
                         "note": "slave core set_real + get_real + do_step, axes moving every step"}}),
+    )
+}
+
+/// The tryout data of an independent generator and the real impact test (shared/data).
+const TRYOUT: &str = "/work/shared/data/tryout_gantry";
+const REAL_IMPACT: &str = "/work/shared/data/pyfrf_impact_hammer/impact_5hits.csv";
+
+/// `mtwin identify FILE` with its defaults (the library call behind it) on one record:
+/// the model of its one pose and the median time of [`RUNS`] runs (record in memory).
+fn identify_record(rec: &TimeSeries) -> Res<(ModalModel, f64)> {
+    let opts = CampaignOptions::default();
+    let recs = std::slice::from_ref(rec);
+    let res = identify_campaign(recs, &opts, &|_, _| {})?;
+    let ms = median_ms(RUNS, || identify_campaign(recs, &opts, &|_, _| {}));
+    let model = res.twin.poses.first().ok_or("no pose model")?.model.clone();
+    Ok((model, ms))
+}
+
+/// The xx channel of `frf`.
+fn xx(mut frf: Frf) -> Frf {
+    frf.channels
+        .retain(|c| c.channel.output == Axis::X && c.channel.input == Axis::X);
+    frf
+}
+
+/// g. Data mtwin was not tuned on: the tryout gantry's impact record at pose g00 (hammer
+/// along x) and its log sweep at the centre, fit of xx against the analytic truth.
+fn case_g() -> Res<Value> {
+    let dir = Path::new(TRYOUT);
+    let mut out = serde_json::Map::new();
+    for (name, rec_path, truth_path, band) in [
+        (
+            "impact_g00_x",
+            "campaign/g00_x.csv",
+            "truth/g00.csv",
+            (30.0, 2500.0),
+        ),
+        (
+            "sweep_centre_x",
+            "sweep_centre_x.csv",
+            "truth/centre.csv",
+            (30.0, 2400.0),
+        ),
+    ] {
+        let rec = identify::read::read_timeseries(&dir.join(rec_path))?;
+        let truth = xx(identify::read::read_frf_csv(&dir.join(truth_path))?);
+        let (model, ms) = identify_record(&rec)?;
+        let fit = worst_fit(&model, &truth, band);
+        println!(
+            "g. tryout {name}: {} modes, xx fit {fit:.3} %, {ms:.1} ms",
+            model.modes.len()
+        );
+        out.insert(
+            name.into(),
+            json!({"record": path_str(&dir.join(rec_path)), "truth": path_str(&dir.join(truth_path)),
+                   "band": [band.0, band.1],
+                   "mtwin": {"fit": fit, "ms": ms, "modes": model.modes.len()}}),
+        );
+    }
+    out.insert("runs".into(), json!(RUNS));
+    Ok(Value::Object(out))
+}
+
+/// h. The real impact test (5 hits, force and acceleration): mtwin's model (receptance)
+/// on 1 Hz lines, for the script to judge against the per-hit H1 of the raw data.
+fn case_h(dir: &Path) -> Res<Value> {
+    let rec = identify::read::read_timeseries(Path::new(REAL_IMPACT))?;
+    let (model, ms) = identify_record(&rec)?;
+    let freqs: Vec<f64> = (1..12_800).map(f64::from).collect();
+    let p = dir.join("h_mtwin_model.csv");
+    write_frf_csv(&p, &model.frf(&freqs))?;
+    println!(
+        "h. real impact test: {} modes, {ms:.1} ms",
+        model.modes.len()
+    );
+    Ok(
+        json!({"record": REAL_IMPACT, "model": path_str(&p), "band": [200.0, 4500.0],
+              "runs": RUNS, "mtwin": {"ms": ms, "modes": model.modes.len()}}),
     )
 }
 
@@ -488,7 +587,9 @@ fn main() -> Res<()> {
             "d" => case_d(&dir, &machine)?,
             "e" => case_e(&machine)?,
             "f" => case_f(&dir, &machine)?,
-            other => return Err(format!("MTWIN_BENCH_ONLY={other}: expected a..f").into()),
+            "g" => case_g()?,
+            "h" => case_h(&dir)?,
+            other => return Err(format!("MTWIN_BENCH_ONLY={other}: expected a..h").into()),
         };
         println!("{}", serde_json::to_string(&v["mtwin"])?);
         if let Some(floor) = v.get("fft_floor") {
@@ -503,6 +604,8 @@ fn main() -> Res<()> {
         "d_campaign": case_d(&dir, &machine)?,
         "e_fmu": case_e(&machine)?,
         "f_refit": case_f(&dir, &machine)?,
+        "g_tryout": case_g()?,
+        "h_real": case_h(&dir)?,
     });
     let p = dir.join("cases.json");
     std::fs::write(&p, serde_json::to_string_pretty(&out)?)?;
