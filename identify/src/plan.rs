@@ -566,6 +566,7 @@ mod tests {
             averages: Some(5),
             method: "impact".into(),
             measured_as: None,
+            coherence_dof: None,
         };
         let p = plan_pose(&frf, &facts, None, &[]);
         assert!(p.channels[0].used && !p.channels[1].used, "{p:?}");
