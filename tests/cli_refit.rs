@@ -109,6 +109,19 @@ fn a_lone_copy_of_the_binary_exports_with_the_embedded_slave() {
     assert!(o.status.success(), "{}", stderr(&o));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(v["slave_library"], "embedded", "{v}");
+    // sizes: the .fmu, and unpacked the lean twin (no FRFs or history) and the library
+    let size = &v["size_bytes"];
+    let n = |k: &str| {
+        size[k]
+            .as_u64()
+            .unwrap_or_else(|| panic!("size_bytes.{k}: {v}"))
+    };
+    assert_eq!(n("fmu"), std::fs::metadata(&fmu).unwrap().len());
+    assert_eq!(
+        n("unpacked"),
+        n("resources") + n("slave_library") + n("model_description")
+    );
+    assert!(n("resources") < 100_000, "{v}");
     // the zip holds an ELF shared object under binaries/linux64
     let mut z = zip::ZipArchive::new(std::fs::File::open(&fmu).unwrap()).unwrap();
     let mut so = Vec::new();

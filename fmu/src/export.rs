@@ -7,9 +7,14 @@
 //! (its build script builds it; see [`export_fmu_with`]), so an installed binary
 //! (`cargo install --path .`) needs nothing next to it.
 
-use crate::slave::{variables, Var};
+use crate::resources::{utc_iso, FmuTwin};
+use crate::slave::{start_pose, variables, Var};
+use identify::axis::Axis;
 use identify::twin::Twin;
-use model_description::{BaseUnit, DefaultExperiment, ModelDescription, Unit, UnitDefinitions};
+use model_description::{
+    BaseUnit, Category, DefaultExperiment, LogCategories, ModelDescription, Real, Unit,
+    UnitDefinitions,
+};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -20,13 +25,80 @@ fn bad(msg: String) -> identify::Error {
     identify::Error::BadInput(msg)
 }
 
-/// `modelDescription.xml` of `twin`'s FMU.
+/// Description of every FMU variable: frame, sign and what is read when.
+fn describe(v: Var, lo: &[f64; 3], hi: &[f64; 3]) -> String {
+    match v {
+        Var::Force(a) => format!(
+            "Force on the tool at the tool centre point along the machine's {a} axis (the \
+             force the workpiece or the hammer exerts on the tool; positive along +{a}), in N"
+        ),
+        Var::Pos(a) => {
+            let i = a.index();
+            format!(
+                "Axis position {a} from the machine control, in m (machine coordinates). The \
+                 twin was measured for {a} in [{}, {}] m (min/max); outside, the model of the \
+                 nearest point of that box is used (clamped, not extrapolated) and a warning \
+                 is logged once per excursion",
+                lo[i], hi[i]
+            )
+        }
+        Var::Disp(a) => format!(
+            "Displacement of the tool centre point along the machine's {a} axis, relative to \
+             the workpiece (taken as rigid), in m; positive along +{a}, so a static force \
+             +F{a} gives +d{a}. Read after setting the inputs at t, it includes the direct \
+             feedthrough of the forces at t"
+        ),
+    }
+}
+
+/// The inputs an output depends on at the same communication point: the forces of the
+/// channels with a direct (residual-compliance) term at some pose, and the axis positions
+/// along which the measured box has an extent (the model varies there).
+fn dependencies(twin: &Twin, out: Axis, lo: &[f64; 3], hi: &[f64; 3]) -> Vec<String> {
+    let mut deps = Vec::new();
+    for v in variables(twin) {
+        match v {
+            Var::Force(a) => {
+                let direct = twin.poses.iter().any(|p| {
+                    p.model
+                        .channels
+                        .iter()
+                        .any(|c| c.channel.output == out && c.channel.input == a && c.d != 0.0)
+                });
+                if direct {
+                    deps.push(v.name());
+                }
+            }
+            Var::Pos(a) if hi[a.index()] > lo[a.index()] => deps.push(v.name()),
+            _ => {}
+        }
+    }
+    deps
+}
+
+/// `modelDescription.xml` of `twin`'s FMU, generated now.
 pub fn model_description(twin: &Twin) -> ModelDescription {
-    let mut md = ModelDescription::co_simulation(&twin.name, &twin.guid(), MODEL_IDENTIFIER);
+    model_description_at(twin, identify::twin::now_unix())
+}
+
+/// `modelDescription.xml` of `twin`'s FMU, generated at `unix_time` (s since 1970, UTC).
+pub fn model_description_at(twin: &Twin, unix_time: u64) -> ModelDescription {
+    let lean = FmuTwin::from_twin(twin);
+    let (lo, hi) = lean.bounds();
+    let mut md = ModelDescription::co_simulation(&twin.name, &lean.guid, MODEL_IDENTIFIER);
+    let boxed = Axis::ALL
+        .iter()
+        .map(|a| format!("{a} {}..{} m", lo[a.index()], hi[a.index()]))
+        .collect::<Vec<_>>()
+        .join(", ");
     md.description = Some(format!(
-        "mtwin digital twin of the TCP dynamics of '{}': {} pose(s), channels {}",
+        "mtwin digital twin of the TCP dynamics of '{}' ({}, written by {}): {}; channels {}; \
+         measured box {boxed}. Forces on the tool, displacements of the tool relative to the \
+         workpiece, machine axis frame, SI units",
         twin.name,
-        twin.poses.len(),
+        lean.provenance.twin_schema,
+        lean.provenance.twin_tool,
+        lean.provenance.line(),
         twin.channels
             .iter()
             .map(|c| c.name())
@@ -34,6 +106,7 @@ pub fn model_description(twin: &Twin) -> ModelDescription {
             .join(",")
     ));
     md.generation_tool = Some(format!("mtwin {}", env!("CARGO_PKG_VERSION")));
+    md.generation_date_and_time = Some(utc_iso(unix_time));
     md.co_simulation.can_get_and_set_fmu_state = Some(true);
     md.co_simulation.can_serialize_fmu_state = Some(true);
     md.unit_definitions = Some(UnitDefinitions {
@@ -56,17 +129,64 @@ pub fn model_description(twin: &Twin) -> ModelDescription {
             },
         ],
     });
+    let cat = |n: &str, d: &str| Category {
+        name: n.into(),
+        description: Some(d.into()),
+    };
+    md.log_categories = Some(LogCategories {
+        categories: vec![
+            cat(
+                "logStatusWarning",
+                "axis positions outside the measured box (once per excursion)",
+            ),
+            cat(
+                "logStatusError",
+                "misuse of the API, bad resources, overflow",
+            ),
+            cat("logAll", "everything (with debug logging on)"),
+        ],
+    });
     md.default_experiment = Some(DefaultExperiment {
         start_time: Some(0.0),
         stop_time: Some(1.0),
         step_size: Some(1e-4),
     });
+    let start = start_pose(&lo, &hi);
     for v in variables(twin) {
-        md = match v {
-            Var::Force(_) => md.with_real(&v.name(), "input", Some(0.0), Some("N")),
-            Var::Pos(_) => md.with_real(&v.name(), "input", Some(0.0), Some("m")),
-            Var::Disp(_) => md.with_real(&v.name(), "output", None, Some("m")),
+        let d = describe(v, &lo, &hi);
+        let real = match v {
+            Var::Force(_) => Real {
+                quantity: Some("Force".into()),
+                unit: Some("N".into()),
+                start: Some(0.0),
+                ..Real::default()
+            },
+            Var::Pos(a) => Real {
+                quantity: Some("Length".into()),
+                unit: Some("m".into()),
+                min: Some(lo[a.index()]),
+                max: Some(hi[a.index()]),
+                start: Some(start[a.index()]),
+            },
+            Var::Disp(_) => Real {
+                quantity: Some("Length".into()),
+                unit: Some("m".into()),
+                ..Real::default()
+            },
         };
+        let causality = if matches!(v, Var::Disp(_)) {
+            "output"
+        } else {
+            "input"
+        };
+        md = md.with_described_real(&v.name(), causality, &d, real);
+    }
+    for v in variables(twin) {
+        if let Var::Disp(a) = v {
+            let deps = dependencies(twin, a, &lo, &hi);
+            let deps: Vec<&str> = deps.iter().map(String::as_str).collect();
+            md.set_dependencies(&v.name(), &deps);
+        }
     }
     md
 }
@@ -119,9 +239,24 @@ pub fn find_library() -> Result<PathBuf, identify::Error> {
     )))
 }
 
+/// Sizes of an exported FMU, in bytes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FmuSize {
+    /// The `.fmu` file (zip).
+    pub fmu: u64,
+    /// Everything unpacked.
+    pub unpacked: u64,
+    /// `resources/` unpacked (the lean twin).
+    pub resources: u64,
+    /// The slave library unpacked.
+    pub library: u64,
+    /// `modelDescription.xml`.
+    pub model_description: u64,
+}
+
 /// Writes the FMU of `twin` to `out` (atomically), with the slave library found by
 /// [`find_library`].
-pub fn export_fmu(twin: &Twin, out: &Path) -> Result<(), identify::Error> {
+pub fn export_fmu(twin: &Twin, out: &Path) -> Result<FmuSize, identify::Error> {
     export_fmu_with(twin, out, None)
 }
 
@@ -132,7 +267,7 @@ pub fn export_fmu_with(
     twin: &Twin,
     out: &Path,
     embedded: Option<&[u8]>,
-) -> Result<(), identify::Error> {
+) -> Result<FmuSize, identify::Error> {
     let so: std::borrow::Cow<[u8]> = match embedded {
         Some(b) if std::env::var_os("MTWIN_FMU_LIB").is_none() => std::borrow::Cow::Borrowed(b),
         _ => {
@@ -143,7 +278,9 @@ pub fn export_fmu_with(
     let xml = model_description(twin)
         .to_xml()
         .map_err(|e| bad(format!("modelDescription.xml: {e}")))?;
-    let json = serde_json::to_vec_pretty(twin).map_err(|e| bad(format!("twin: {e}")))?;
+    // the slave needs the pose models only: no FRFs, plans or history (module docs of
+    // `resources`)
+    let json = FmuTwin::from_twin(twin).to_json().map_err(bad)?;
     let mut buf = std::io::Cursor::new(Vec::new());
     {
         let mut zip = zip::ZipWriter::new(&mut buf);
@@ -160,5 +297,13 @@ pub fn export_fmu_with(
         zip.write_all(&json).map_err(io)?;
         zip.finish().map_err(zerr)?;
     }
-    identify::atomic::write_atomic(out, buf.get_ref())
+    identify::atomic::write_atomic(out, buf.get_ref())?;
+    let (xml_n, so_n, json_n) = (xml.len() as u64, so.len() as u64, json.len() as u64);
+    Ok(FmuSize {
+        fmu: buf.get_ref().len() as u64,
+        unpacked: xml_n + so_n + json_n,
+        resources: json_n,
+        library: so_n,
+        model_description: xml_n,
+    })
 }

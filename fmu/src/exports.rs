@@ -8,8 +8,8 @@
 //! the given lengths (NULL with length 0 is fine), strings NUL-terminated.
 
 use crate::ffi::*;
+use crate::resources::FmuTwin;
 use crate::slave::{Slave, Snapshot};
-use identify::twin::Twin;
 use std::ffi::{c_char, CStr, CString};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::PathBuf;
@@ -51,13 +51,29 @@ fn log_with(
 
 impl Instance {
     fn log(&self, status: Fmi2Status, msg: &str) {
-        let cat = if status == Fmi2Status::Ok {
-            "logAll"
-        } else {
-            "logStatusError"
+        let cat = match status {
+            Fmi2Status::Ok => "logAll",
+            Fmi2Status::Warning => "logStatusWarning",
+            _ => "logStatusError",
         };
         if status != Fmi2Status::Ok || self.debug {
             log_with(self.logger, self.env, &self.name, status, cat, msg);
+        }
+    }
+}
+
+impl Instance {
+    /// Logs the slave's pending warnings (a pose leaving the measured box): `fmi2Warning`
+    /// when there were any, else `fmi2OK`.
+    fn warn(&mut self) -> Fmi2Status {
+        let w = self.slave.take_warnings();
+        for m in &w {
+            self.log(Fmi2Status::Warning, m);
+        }
+        if w.is_empty() {
+            Fmi2Status::Ok
+        } else {
+            Fmi2Status::Warning
         }
     }
 }
@@ -185,9 +201,9 @@ fn instantiate(
     let loc = loc.ok_or("fmuResourceLocation is NULL")?;
     let dir = resource_dir(&loc)?;
     let path = dir.join("twin.json");
-    let twin =
-        Twin::load(&path).map_err(|e| format!("instance '{name}': cannot read the twin: {e}"))?;
-    let want = twin.guid();
+    let twin = FmuTwin::load(&path)
+        .map_err(|e| format!("instance '{name}': cannot read the twin: {e}"))?;
+    let want = twin.guid.clone();
     match guid {
         Some(g) if g == want => {}
         Some(g) => {
@@ -197,7 +213,7 @@ fn instantiate(
         }
         None => return Err("fmuGUID is NULL".into()),
     }
-    Slave::new(&twin)
+    Slave::from_lean(&twin)
 }
 
 /// `fmi2GetTypesPlatform`.
@@ -376,7 +392,8 @@ pub unsafe extern "C" fn fmi2GetReal(
         let vr = unsafe { slice(vr, nvr, "vr") }?;
         // SAFETY: as above.
         let out = unsafe { slice_mut(value, nvr, "value") }?;
-        i.slave.get_real(vr, out).map(|_| Fmi2Status::Ok)
+        i.slave.get_real(vr, out)?;
+        Ok(i.warn())
     })
 }
 
@@ -702,7 +719,8 @@ pub unsafe extern "C" fn fmi2DoStep(
     _no_set_prior: Fmi2Boolean,
 ) -> Fmi2Status {
     call(c, "fmi2DoStep", |i| {
-        i.slave.do_step(t, h).map(|_| Fmi2Status::Ok)
+        i.slave.do_step(t, h)?;
+        Ok(i.warn())
     })
 }
 

@@ -10,13 +10,15 @@
 //!   `mtwin simulate`).
 //!
 //! [`export::export_fmu`] packages a twin as an `.fmu` (zip with `modelDescription.xml`,
-//! `binaries/linux64/mtwin_tcp.so`, `resources/twin.json`). No global state: instances
+//! `binaries/linux64/mtwin_tcp.so`, `resources/twin.json`); the resource is the lean
+//! twin of [`resources`] (pose models, no FRFs or history). No global state: instances
 //! are independent.
 
 pub mod export;
 #[allow(missing_docs)]
 mod exports;
 pub mod ffi;
+pub mod resources;
 pub mod slave;
 
 pub use exports::resource_dir;

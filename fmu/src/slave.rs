@@ -7,7 +7,8 @@
 //! force and pose held at their values of `t`. Fed the samples of a record this gives,
 //! sample by sample, exactly what `mtwin simulate --hold zoh` writes.
 
-use identify::axis::Axis;
+use crate::resources::FmuTwin;
+use identify::axis::{Axis, Channel};
 use identify::interpolate::TwinEvaluator;
 use identify::simulate::{Hold, Simulator};
 use identify::twin::Twin;
@@ -37,8 +38,13 @@ impl Var {
 
 /// The variables of a twin's FMU, in value-reference order.
 pub fn variables(twin: &Twin) -> Vec<Var> {
-    let mut ins: Vec<Axis> = twin.channels.iter().map(|c| c.input).collect();
-    let mut outs: Vec<Axis> = twin.channels.iter().map(|c| c.output).collect();
+    variables_of(&twin.channels)
+}
+
+/// The variables of the FMU of a twin with `channels`, in value-reference order.
+pub fn variables_of(channels: &[Channel]) -> Vec<Var> {
+    let mut ins: Vec<Axis> = channels.iter().map(|c| c.input).collect();
+    let mut outs: Vec<Axis> = channels.iter().map(|c| c.output).collect();
     ins.sort();
     ins.dedup();
     outs.sort();
@@ -47,6 +53,18 @@ pub fn variables(twin: &Twin) -> Vec<Var> {
     v.extend(Axis::ALL.iter().map(|a| Var::Pos(*a)));
     v.extend(outs.iter().map(|a| Var::Disp(*a)));
     v
+}
+
+/// Start values of the axis positions x, y, z: the origin, or its nearest point of the
+/// measured box `lo..hi` (the model there is the same; the start lies within min/max).
+pub fn start_pose(lo: &[f64; 3], hi: &[f64; 3]) -> [f64; 3] {
+    let mut p = [0.0; 3];
+    for a in 0..3 {
+        if lo[a] <= hi[a] {
+            p[a] = 0.0f64.clamp(lo[a], hi[a]);
+        }
+    }
+    p
 }
 
 /// Life-cycle state of the slave.
@@ -142,12 +160,30 @@ pub struct Slave {
     time: f64,
     start_time: f64,
     phase: Phase,
+    /// The measured box (the model is clamped to it).
+    lo: [f64; 3],
+    hi: [f64; 3],
+    /// True while the axis positions are outside the measured box (one warning per
+    /// excursion).
+    outside: bool,
+    /// Warnings not yet handed to the importer's logger.
+    warnings: Vec<String>,
 }
 
 impl Slave {
-    /// A slave for `twin`.
+    /// A slave for `twin` (through its lean form, [`FmuTwin::from_twin`]).
     pub fn new(twin: &Twin) -> Result<Self, String> {
-        let ev = TwinEvaluator::new(twin).map_err(|e| e.to_string())?;
+        Self::from_lean(&FmuTwin::from_twin(twin))
+    }
+
+    /// A slave for the lean twin the FMU carries.
+    pub fn from_lean(twin: &FmuTwin) -> Result<Self, String> {
+        let poses: Vec<([f64; 3], &identify::model::ModalModel)> =
+            twin.poses.iter().map(|p| (p.pose, &p.model)).collect();
+        let ev = TwinEvaluator::from_poses(&poses).map_err(|e| e.to_string())?;
+        let (lo, hi) = ev.bounds();
+        let p0 = start_pose(&lo, &hi);
+        let start = [0.0, 0.0, 0.0, p0[0], p0[1], p0[2]];
         let n = ev.n_modes();
         // the twin's extensions: a cubic modal stiffness and external vibrations are part of
         // the machine and go into the FMU; a delay between the force and response channels
@@ -167,15 +203,19 @@ impl Slave {
             return Err("the twin's cubic stiffness terms are not finite".into());
         }
         Ok(Slave {
-            vars: variables(twin),
+            vars: variables_of(&twin.channels),
             ev,
             sim,
             disturbance: twin.extensions.disturbance.clone(),
-            inputs: [0.0; 6],
-            start: [0.0; 6],
+            inputs: start,
+            start,
             time: 0.0,
             start_time: 0.0,
             phase: Phase::Instantiated,
+            lo,
+            hi,
+            outside: false,
+            warnings: Vec::new(),
         })
     }
 
@@ -260,6 +300,52 @@ impl Slave {
         self.time = 0.0;
         self.start_time = 0.0;
         self.phase = Phase::Instantiated;
+        self.outside = false;
+        self.warnings.clear();
+    }
+
+    /// Warnings since the last call (for the importer's logger): one when the axis
+    /// positions leave the measured box, none while they stay out.
+    pub fn take_warnings(&mut self) -> Vec<String> {
+        std::mem::take(&mut self.warnings)
+    }
+
+    /// The measured box: lower and upper corner \[m\].
+    pub fn bounds(&self) -> ([f64; 3], [f64; 3]) {
+        (self.lo, self.hi)
+    }
+
+    /// The pose the model is evaluated at; notes the start of an excursion outside the
+    /// measured box (where the model is clamped to the box).
+    fn checked_pose(&mut self) -> [f64; 3] {
+        let pose = self.pose();
+        // 0.1 mm, as the evaluator's own inside test
+        const TOL: f64 = 1e-4;
+        let out: Vec<String> = (0..3)
+            .filter(|&a| !(pose[a] >= self.lo[a] - TOL && pose[a] <= self.hi[a] + TOL))
+            .map(|a| {
+                format!(
+                    "{} = {} m (measured {}..{} m)",
+                    Axis::ALL[a],
+                    pose[a],
+                    self.lo[a],
+                    self.hi[a]
+                )
+            })
+            .collect();
+        if out.is_empty() {
+            self.outside = false;
+        } else if !self.outside {
+            self.outside = true;
+            self.warnings.push(format!(
+                "t = {} s: axis position outside the measured box ({}): the twin is \
+                 evaluated at the nearest point of the box (clamped, not extrapolated); \
+                 warned once until the axes come back into the box",
+                self.time,
+                out.join(", ")
+            ));
+        }
+        pose
     }
 
     /// `fmi2SetReal`.
@@ -290,7 +376,7 @@ impl Slave {
 
     /// The outputs dx, dy, dz now (state plus feedthrough at the current pose).
     pub fn outputs(&mut self) -> [f64; 3] {
-        let pose = self.pose();
+        let pose = self.checked_pose();
         let u = self.force();
         let model = self.ev.model_at(pose);
         let mut y = self.sim.output(model, &u);
@@ -343,7 +429,7 @@ impl Slave {
             ));
         }
         if h > 0.0 {
-            let pose = self.pose();
+            let pose = self.checked_pose();
             let u = self.force();
             let model = self.ev.model_at(pose);
             self.sim.step(model, &u, &u, h);

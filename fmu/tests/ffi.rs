@@ -184,7 +184,8 @@ fn c_api_survives_misuse_and_random_call_sequences() {
                 7 => {
                     let h = ((r >> 32) % 100) as f64 * 1e-5;
                     let s = step(c, t, h, 1);
-                    if s == 0 {
+                    // fmi2Warning: the step went through (axes outside the measured box)
+                    if s <= 1 {
                         t += h;
                     }
                     s
@@ -286,14 +287,15 @@ fn c_api_survives_misuse_and_random_call_sequences() {
                 "{}(vr {}, value {:e}) -> {st}",
                 NAMES[op as usize], vr[0], v[0]
             ));
+            // fmi2Warning only from getReal/doStep, for axis positions outside the box
             assert!(
-                st == 0 || st == 3,
+                st == 0 || st == 3 || (st == 1 && matches!(op, 5 | 7 | 8)),
                 "status {st} (MTWIN_FUZZ_SEED={seed0:#x}); last calls: {recent:#?}"
             );
             if op == 4 && st == 0 {
                 t = 0.0;
             }
-            if op == 5 && st == 0 {
+            if op == 5 && st <= 1 {
                 assert!(
                     out[0].is_finite(),
                     "non-finite output {} (MTWIN_FUZZ_SEED={seed0:#x}); last calls: {recent:#?}",

@@ -58,6 +58,13 @@ pub struct ModelDescription {
         default
     )]
     pub generation_tool: Option<String>,
+    /// When the FMU was generated (ISO 8601, UTC: `2026-11-25T18:53:41Z`).
+    #[serde(
+        rename = "@generationDateAndTime",
+        skip_serializing_if = "Option::is_none",
+        default
+    )]
+    pub generation_date_and_time: Option<String>,
     /// "flat" or "structured".
     #[serde(
         rename = "@variableNamingConvention",
@@ -82,6 +89,13 @@ pub struct ModelDescription {
         default
     )]
     pub unit_definitions: Option<UnitDefinitions>,
+    /// `<LogCategories>`.
+    #[serde(
+        rename = "LogCategories",
+        skip_serializing_if = "Option::is_none",
+        default
+    )]
+    pub log_categories: Option<LogCategories>,
     /// `<DefaultExperiment>`.
     #[serde(
         rename = "DefaultExperiment",
@@ -173,6 +187,29 @@ pub struct BaseUnit {
     pub s: Option<i32>,
 }
 
+/// `<LogCategories>`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+pub struct LogCategories {
+    /// The categories.
+    #[serde(rename = "Category", default)]
+    pub categories: Vec<Category>,
+}
+
+/// `<Category name= description=>`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Category {
+    /// Category name, e.g. `logStatusWarning`.
+    #[serde(rename = "@name")]
+    pub name: String,
+    /// What it logs.
+    #[serde(
+        rename = "@description",
+        skip_serializing_if = "Option::is_none",
+        default
+    )]
+    pub description: Option<String>,
+}
+
 /// `<DefaultExperiment>`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct DefaultExperiment {
@@ -240,9 +277,18 @@ pub struct ScalarVariable {
 /// `<Real>` type attributes.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
 pub struct Real {
+    /// Physical quantity, e.g. `Force`.
+    #[serde(rename = "@quantity", skip_serializing_if = "Option::is_none", default)]
+    pub quantity: Option<String>,
     /// Unit name.
     #[serde(rename = "@unit", skip_serializing_if = "Option::is_none", default)]
     pub unit: Option<String>,
+    /// Smallest value.
+    #[serde(rename = "@min", skip_serializing_if = "Option::is_none", default)]
+    pub min: Option<f64>,
+    /// Largest value.
+    #[serde(rename = "@max", skip_serializing_if = "Option::is_none", default)]
+    pub max: Option<f64>,
     /// Start value.
     #[serde(rename = "@start", skip_serializing_if = "Option::is_none", default)]
     pub start: Option<f64>,
@@ -291,6 +337,7 @@ impl ModelDescription {
             guid: guid.into(),
             description: None,
             generation_tool: None,
+            generation_date_and_time: None,
             variable_naming_convention: Some("flat".into()),
             number_of_event_indicators: Some(0),
             co_simulation: CoSimulation {
@@ -302,6 +349,7 @@ impl ModelDescription {
                 can_be_instantiated_only_once_per_process: Some(false),
             },
             unit_definitions: None,
+            log_categories: None,
             default_experiment: None,
             model_variables: ModelVariables { variables: vec![] },
             model_structure: ModelStructure::default(),
@@ -330,6 +378,7 @@ impl ModelDescription {
             real: Real {
                 unit: unit.map(Into::into),
                 start: if is_output { None } else { start },
+                ..Real::default()
             },
         });
         if is_output {
@@ -350,6 +399,63 @@ impl ModelDescription {
             self.model_structure.initial_unknowns.unknowns.push(u);
         }
         self
+    }
+
+    /// Adds a continuous real variable with a description and its `<Real>` attributes
+    /// (for an output, `real.start` is dropped). An output is listed in Outputs and
+    /// InitialUnknowns depending on every input declared before it, until
+    /// [`ModelDescription::set_dependencies`] says otherwise.
+    pub fn with_described_real(
+        self,
+        name: &str,
+        causality: &str,
+        description: &str,
+        real: Real,
+    ) -> Self {
+        let mut md = self.with_real(name, causality, real.start, real.unit.as_deref());
+        if let Some(v) = md.model_variables.variables.last_mut() {
+            v.description = Some(description.into());
+            let start = v.real.start;
+            v.real = Real { start, ..real };
+        }
+        md
+    }
+
+    /// Sets the variables output `output` depends on (by name) in Outputs and
+    /// InitialUnknowns; an empty list writes `dependencies=""` (depends on no input).
+    /// Returns false when a name is unknown or `output` is not an output.
+    pub fn set_dependencies(&mut self, output: &str, on: &[&str]) -> bool {
+        let index_of = |n: &str| {
+            self.model_variables
+                .variables
+                .iter()
+                .position(|v| v.name == n)
+                .map(|i| i as u32 + 1)
+        };
+        let Some(idx) = index_of(output) else {
+            return false;
+        };
+        let Some(mut deps) = on.iter().map(|n| index_of(n)).collect::<Option<Vec<u32>>>() else {
+            return false;
+        };
+        deps.sort_unstable();
+        deps.dedup();
+        let text = deps
+            .iter()
+            .map(u32::to_string)
+            .collect::<Vec<_>>()
+            .join(" ");
+        let mut found = false;
+        for list in [
+            &mut self.model_structure.outputs.unknowns,
+            &mut self.model_structure.initial_unknowns.unknowns,
+        ] {
+            for u in list.iter_mut().filter(|u| u.index == idx) {
+                u.dependencies = Some(text.clone());
+                found = true;
+            }
+        }
+        found
     }
 
     /// The XML text (with declaration).

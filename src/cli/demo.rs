@@ -185,7 +185,7 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
     out.say("3/7 export the FMU ...");
     let fmu_path = dir.join("twin.fmu");
     match export::export(&twin, &fmu_path) {
-        Ok(()) => summary.push((
+        Ok(_) => summary.push((
             "FMU".into(),
             format!(
                 "{} (FMI 2.0 co-simulation, inputs Fx Fy x y z, outputs dx dy)",

@@ -3,6 +3,7 @@
 use super::Output;
 use anyhow::Result;
 use identify::twin::Twin;
+use mtwin_fmu::export::FmuSize;
 use std::path::{Path, PathBuf};
 
 /// Arguments of `mtwin export`.
@@ -24,10 +25,35 @@ pub const EMBEDDED_SLAVE: Option<&[u8]> =
 #[cfg(not(mtwin_embedded_fmu))]
 pub const EMBEDDED_SLAVE: Option<&[u8]> = None;
 
-/// Writes the FMU of `twin` to `out`.
-pub fn export(twin: &Twin, out: &Path) -> Result<()> {
-    mtwin_fmu::export::export_fmu_with(twin, out, EMBEDDED_SLAVE)?;
-    Ok(())
+/// Writes the FMU of `twin` to `out`; returns its sizes.
+pub fn export(twin: &Twin, out: &Path) -> Result<FmuSize> {
+    Ok(mtwin_fmu::export::export_fmu_with(
+        twin,
+        out,
+        EMBEDDED_SLAVE,
+    )?)
+}
+
+/// `1.23 MB` / `45.6 kB` / `789 B`.
+pub fn human_bytes(n: u64) -> String {
+    match n {
+        0..1_000 => format!("{n} B"),
+        1_000..1_000_000 => format!("{:.1} kB", n as f64 / 1e3),
+        _ => format!("{:.2} MB", n as f64 / 1e6),
+    }
+}
+
+/// One line on the sizes of an exported FMU.
+pub fn size_line(s: &FmuSize) -> String {
+    format!(
+        "  size {} (unpacked {}: slave library {}, resources {}, modelDescription.xml {}); \
+         the resources hold the pose models only (no FRFs, plans or history)",
+        human_bytes(s.fmu),
+        human_bytes(s.unpacked),
+        human_bytes(s.library),
+        human_bytes(s.resources),
+        human_bytes(s.model_description)
+    )
 }
 
 /// Where the slave library of an export comes from: `embedded` or its path.
@@ -72,13 +98,14 @@ pub fn extensions_in_fmu(twin: &Twin) -> (Vec<String>, Vec<String>) {
 pub fn run(a: Args, out: &Output) -> Result<()> {
     super::check_output_not_input(&a.out, std::slice::from_ref(&a.twin))?;
     let twin = Twin::load(&a.twin)?;
-    export(&twin, &a.out)?;
+    let size = export(&twin, &a.out)?;
     let slave = slave_source();
     out.say(format!(
         "FMU (FMI 2.0 co-simulation, GUID {}, slave library {slave}) -> {}",
         twin.guid(),
         a.out.display()
     ));
+    out.say(size_line(&size));
     let (carried, left_out) = extensions_in_fmu(&twin);
     if !carried.is_empty() {
         out.say(format!(
@@ -99,6 +126,13 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
         "slave_library": slave,
         "extensions_in_fmu": carried,
         "extensions_not_in_fmu": left_out,
+        "size_bytes": {
+            "fmu": size.fmu,
+            "unpacked": size.unpacked,
+            "resources": size.resources,
+            "slave_library": size.library,
+            "model_description": size.model_description,
+        },
     }));
     Ok(())
 }

@@ -119,8 +119,9 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
         ));
     }
     if let Some(f) = &a.fmu {
-        super::export::export(&new, f)?;
+        let size = super::export::export(&new, f)?;
         out.say(format!("updated FMU -> {}", f.display()));
+        out.say(super::export::size_line(&size));
     }
     if let Some(r) = &a.report {
         let html = super::refit_report::refit_report(&twin, &new, &rep, &series);

@@ -315,3 +315,106 @@ def test_extended_twin_cubic_stiffness_and_vibration_agree_with_mtwin_simulate(b
         scale = np.max(np.abs(pred[name]))
         assert np.max(np.abs(y[:, i] - pred[name])) / scale < 1e-9, name
     assert np.max(np.abs(pred["dx"] - lin["dx"])) / np.max(np.abs(lin["dx"])) > 1e-3
+
+
+def test_model_description_explains_every_variable(built, capsys):
+    """`fmpy.dump` shows a description and a unit on every variable and the measured box
+    as min/max of the axis positions; the model description says when it was generated
+    and where the twin came from; Outputs state the direct feedthrough."""
+    import json
+
+    import fmpy
+
+    fmu = built["fmu"]
+    md = read_model_description(fmu)
+    twin = json.loads((built["dir"] / "twin.json").read_text())
+    poses = np.array([p["pose"] for p in twin["poses"]])
+    lo, hi = poses.min(axis=0), poses.max(axis=0)
+    units = {u.name for u in md.unitDefinitions}
+    assert {"N", "m"} <= units
+    for v in md.modelVariables:
+        assert v.description and len(v.description) > 40, v.name
+        assert v.unit in units, (v.name, v.unit)
+        if v.name in "xyz":
+            a = "xyz".index(v.name)
+            assert (float(v.min), float(v.max)) == (lo[a], hi[a]), v.name
+            assert lo[a] <= float(v.start) <= hi[a], v.name
+    desc = {v.name: v.description for v in md.modelVariables}
+    assert "on the tool" in desc["Fx"] and "relative to the workpiece" in desc["dx"]
+    assert "direct" in desc["dx"] and "feedthrough" in desc["dx"]
+    assert md.generationDateAndTime and md.generationDateAndTime.endswith("Z")
+    assert f"{len(twin['poses'])} pose(s)" in md.description and "identify" in md.description
+    # every output depends on the forces of its channels (residual compliance) and the
+    # axis positions; none on a force it has no channel to
+    names = [v.name for v in md.modelVariables]
+    for u in md.outputs:
+        deps = {d.name for d in u.dependencies}
+        out = u.variable.name[1]
+        chans = [c for c in twin["channels"] if c["output"] == out]
+        assert deps <= {"F" + c["input"] for c in chans} | {"x", "y", "z"}, (u.variable.name, deps)
+        assert "F" + out in deps, (u.variable.name, deps)
+    fmpy.dump(fmu)
+    text = capsys.readouterr().out
+    assert "on the tool" in text and "Description" in text, text
+    assert names == ["Fx", "Fy", "x", "y", "z", "dx", "dy"]
+
+
+def test_resources_hold_the_lean_twin(built):
+    """No FRFs, plans or history in the FMU: the lean twin (pose models) and the twin's
+    identity only, well under 1 MB."""
+    import json
+
+    with zipfile.ZipFile(built["fmu"]) as z:
+        info = {i.filename: i.file_size for i in z.infolist()}
+        lean = json.loads(z.read("resources/twin.json"))
+    assert sum(n for f, n in info.items() if not f.startswith("binaries/")) < 1_000_000, info
+    assert lean["schema"] == "mtwin-fmu-twin"
+    assert lean["guid"] == read_model_description(built["fmu"]).guid
+    text = json.dumps(lean)
+    for absent in ('"frf"', '"previous_poses"', '"plan"'):
+        assert absent not in text, absent
+    assert lean["provenance"]["poses"] == len(lean["poses"])
+
+
+def test_leaving_the_measured_box_logs_one_warning_per_excursion(built, tmp_path):
+    """Axis positions outside the measured box: the model is clamped to the box and the
+    FMI logger gets one warning per excursion (not one per step)."""
+    from fmpy.fmi2 import fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
+    from fmpy.logging import addLoggerProxy
+
+    got = []
+
+    def logger(env, name, status, category, message):
+        got.append((status, category.decode(), message.decode()))
+
+    cb = fmi2CallbackFunctions()
+    cb.logger = fmi2CallbackLoggerTYPE(logger)
+    addLoggerProxy(ctypes.byref(cb))
+    md, s = open_slave(built["fmu"], unzip(built["fmu"], tmp_path / "u"))
+    s.instantiate(callbacks=cb)
+    s.setupExperiment(startTime=0.0)
+    s.enterInitializationMode()
+    s.exitInitializationMode()
+    r = refs(md)
+    lo = [float(v.min) for v in md.modelVariables if v.name in "xyz"]
+    hi = [float(v.max) for v in md.modelVariables if v.name in "xyz"]
+    mid = [(a + b) / 2 for a, b in zip(lo, hi)]
+    dt = 1e-4
+    statuses = []
+    for i in range(400):
+        p = list(mid)
+        if 100 <= i < 150:
+            p[0] = hi[0] + 0.001 * (i - 99)  # out along x, further every step
+        if 300 <= i < 350:
+            p[1] = lo[1] - 0.2  # out along y
+        s.setReal([r["Fx"], r["Fy"], r["x"], r["y"], r["z"]], [1.0, 0.5] + p)
+        y = s.getReal([r["dx"], r["dy"]])
+        assert np.all(np.isfinite(y))
+        statuses.append(s.fmi2DoStep(s.component, i * dt, dt, 1))
+    s.terminate()
+    s.freeInstance()
+    warnings = [g for g in got if g[0] == 1]
+    assert len(warnings) == 2, got
+    assert all(g[1] == "logStatusWarning" and "outside the measured box" in g[2] for g in warnings)
+    assert "x = " in warnings[0][2] and "y = " in warnings[1][2], warnings
+    assert not [g for g in got if g[0] > 1], got
