@@ -111,7 +111,11 @@ fn single_chirp_dft_ratio_is_unbiased() {
     assert!(lo < 10.0 && hi > 1100.0 && hi < 1700.0, "{lo} {hi}");
     // one record: the coherence comes from the FRF's line-to-line scatter, near 1 for
     // this noise-free record inside the sweep, low where the force is only leakage
-    assert!(est.method.contains("line-to-line scatter"), "{}", est.method);
+    assert!(
+        est.method.contains("line-to-line scatter"),
+        "{}",
+        est.method
+    );
     let g = est.frf.channels[0].coherence.as_ref().unwrap();
     let inside: Vec<f64> = est
         .frf
