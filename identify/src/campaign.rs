@@ -1210,19 +1210,6 @@ fn fit_pose(
         let worst = f.iter().map(|c| c.fit_pct).fold(f64::INFINITY, f64::min);
         (mean_fit(&f), worst)
     };
-    let mut best = fit_frf(frf, options).map_err(|e| match e {
-        Error::Numerical(msg) => {
-            Error::Numerical(format!("pose {}: {msg}", crate::axis::PoseText(pose)))
-        }
-        other => other,
-    })?;
-    let debug = std::env::var_os("MTWIN_DEBUG_FIT").is_some();
-    if debug {
-        eprintln!("pose {pose:?}, first fit:\n{}", best.report);
-    }
-    let mut best_score = score(&best);
-    let mut best_name = name(options);
-    let mut best_options = options.clone();
     let mut candidates: Vec<FitOptions> = Vec::new();
     let ml_allowed = opts.try_ml_weighting && options.weighting == Weighting::Coherence;
     if ml_allowed {
@@ -1239,6 +1226,29 @@ fn fit_pose(
             ..options.clone()
         });
     }
+    // the first fit and the other weightings do not depend on each other: all at once
+    let (first, mut ready): (Result<crate::rational_fit::FitResult>, Vec<_>) = rayon::join(
+        || fit_frf(frf, options),
+        || {
+            candidates
+                .par_iter()
+                .map(|c| Some(fit_frf(frf, c)))
+                .collect()
+        },
+    );
+    let mut best = first.map_err(|e| match e {
+        Error::Numerical(msg) => {
+            Error::Numerical(format!("pose {}: {msg}", crate::axis::PoseText(pose)))
+        }
+        other => other,
+    })?;
+    let debug = std::env::var_os("MTWIN_DEBUG_FIT").is_some();
+    if debug {
+        eprintln!("pose {pose:?}, first fit:\n{}", best.report);
+    }
+    let mut best_score = score(&best);
+    let mut best_name = name(options);
+    let mut best_options = options.clone();
     let deep = |o: &FitOptions| {
         let mut o = o.clone();
         o.stabilization.max_order = o.stabilization.max_order.max(128);
@@ -1283,9 +1293,20 @@ fn fit_pose(
             }
             continue;
         }
+        if ready.len() < candidates.len() {
+            // every pending candidate of this batch at once (they do not depend on each
+            // other; the choice below still goes through them in order)
+            let fresh: Vec<Option<Result<crate::rational_fit::FitResult>>> = candidates
+                [ready.len()..]
+                .par_iter()
+                .map(|c| Some(fit_frf(frf, c)))
+                .collect();
+            ready.extend(fresh);
+        }
         let cand = &candidates[i];
+        let fitted_cand = ready[i].take().unwrap_or_else(|| fit_frf(frf, cand));
         i += 1;
-        match fit_frf(frf, cand) {
+        match fitted_cand {
             Ok(alt) => {
                 let s = score(&alt);
                 if debug {
