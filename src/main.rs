@@ -1,5 +1,5 @@
 //! `mtwin`: the command line. Thin glue over the `identify` library: parse arguments,
-//! call one library function, print a summary. Exit codes (SPEC section 1): 0 success,
+//! call one library function, print a summary. Exit codes (docs/formats.md, "Exit codes and messages"): 0 success,
 //! 2 bad usage or bad input, 1 any other failure.
 #![forbid(unsafe_code)]
 

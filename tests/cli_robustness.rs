@@ -2,7 +2,7 @@
 //!
 //! Every cell generates, from a seed, a structure (modes, damping, mode shapes) and two
 //! measurements at one pose (excitation along x, then along y; displacement responses
-//! dx, dy), writes them as time-series CSV (SPEC section 2), runs the real binary
+//! dx, dy), writes them as time-series CSV (docs/formats.md, "Time-series CSV"), runs the real binary
 //! `mtwin identify X.csv Y.csv --out twin.json` with no other option, evaluates the twin
 //! with `mtwin eval --freqs` and compares its receptance with the analytic FRF of the
 //! generating structure in the band where the force has energy:

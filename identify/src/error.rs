@@ -44,13 +44,17 @@ pub enum Error {
         /// The underlying error.
         source: std::io::Error,
     },
-    /// JSON (de)serialisation failure of a twin file.
-    #[error("{path}: not a valid twin file: {source}")]
+    /// JSON (de)serialisation failure of a twin file, with the place in the file.
+    #[error("{path}{at}: not a valid twin file: {msg}", at = if *.line > 0 { format!(":{}:{}", .line, .column) } else { String::new() })]
     Json {
         /// The path being read or written.
         path: PathBuf,
-        /// The underlying error.
-        source: serde_json::Error,
+        /// 1-based line of the fault (0 when unknown, e.g. when writing).
+        line: usize,
+        /// 1-based column of the fault (0 when unknown).
+        column: usize,
+        /// What serde_json found wrong, without its own "at line L column C".
+        msg: String,
     },
 }
 
@@ -81,6 +85,20 @@ impl Error {
             line,
             column: column.map(str::to_owned),
             msg: msg.into(),
+        }
+    }
+
+    /// A serde_json error of the twin file `path`: its line and column moved into the
+    /// error's place (`file:line:column`), so the message says them once.
+    pub fn json(path: impl Into<PathBuf>, e: &serde_json::Error) -> Self {
+        let text = e.to_string();
+        let at = format!(" at line {} column {}", e.line(), e.column());
+        let msg = text.strip_suffix(&at).unwrap_or(&text).to_string();
+        Error::Json {
+            path: path.into(),
+            line: e.line(),
+            column: e.column(),
+            msg,
         }
     }
 

@@ -84,7 +84,7 @@ pub(crate) fn weighted_rms(h: &[Complex64], w: &[f64]) -> Option<f64> {
     (den > 0.0 && num > 0.0).then(|| top * (num / den).sqrt())
 }
 
-/// The paper's fit metric (its equation 5, also SPEC section 4), in percent:
+/// The paper's fit metric (its equation 5; docs/formats.md, "Diagnosis output"), in percent:
 /// `(1 - ||F - H|| / ||F - mean(F)||) * 100` over complex (or real) values.
 ///
 /// `truth` is the reference (measured or analytic), `model` the estimate. Returns

@@ -5,7 +5,7 @@
 //!
 //! | step (paper section) | module |
 //! |---|---|
-//! | reading data (SPEC 2, 3) | [`read`], [`timeseries`] |
+//! | reading data (docs/formats.md) | [`read`], [`timeseries`] |
 //! | FRF exchange with modal software: universal file dataset 58/58b | [`uff`] |
 //! | FRF estimation, H1/H2/Hv, impact processing (2.1) | [`spectra`] |
 //! | model order from a stabilization diagram (2.2) | [`stabilization`] |

@@ -47,7 +47,6 @@ use nalgebra::DMatrix;
 use num_complex::Complex64;
 use rayon::prelude::*;
 use std::f64::consts::PI;
-use std::fmt::Write as _;
 use std::path::Path;
 
 /// The cutter.
@@ -1042,8 +1041,10 @@ pub fn lobes_sd(
 }
 
 /// Writes a lobe diagram as CSV (atomically): `rpm, ap_lim_zoa_m, ap_lim_sd_m,
-/// chatter_hz_zoa, chatter_hz_sd`. Both lists must hold the same speeds (either may be
-/// empty; its columns are then left empty).
+/// chatter_hz_zoa, chatter_hz_sd`. Both lists must hold the same speeds; either may be
+/// empty, and its two columns are then left out (no column is ever empty): ZOA alone
+/// is `rpm, ap_lim_zoa_m, chatter_hz_zoa`, SD alone `rpm, ap_lim_sd_m, chatter_hz_sd`.
+/// A limit with no chatter found is written `inf` (its chatter frequency 0).
 pub fn write_lobes_csv(path: &Path, zoa: &[LobePoint], sd: &[LobePoint]) -> Result<()> {
     let n = zoa.len().max(sd.len());
     if !zoa.is_empty() && !sd.is_empty() {
@@ -1072,19 +1073,24 @@ pub fn write_lobes_csv(path: &Path, zoa: &[LobePoint], sd: &[LobePoint]) -> Resu
             "inf".to_string()
         }
     };
-    let mut s = String::from("rpm,ap_lim_zoa_m,ap_lim_sd_m,chatter_hz_zoa,chatter_hz_sd\n");
+    let (has_z, has_d) = (!zoa.is_empty(), !sd.is_empty());
+    let mut header = vec!["rpm"];
+    header.extend(has_z.then_some("ap_lim_zoa_m"));
+    header.extend(has_d.then_some("ap_lim_sd_m"));
+    header.extend(has_z.then_some("chatter_hz_zoa"));
+    header.extend(has_d.then_some("chatter_hz_sd"));
+    let mut s = header.join(",");
+    s.push('\n');
     for i in 0..n {
         let (z, d) = (zoa.get(i), sd.get(i));
         let rpm = z.or(d).map(|p| p.rpm).unwrap_or(0.0);
-        let _ = writeln!(
-            s,
-            "{},{},{},{},{}",
-            rpm,
-            z.map(|p| num(p.ap_lim_m)).unwrap_or_default(),
-            d.map(|p| num(p.ap_lim_m)).unwrap_or_default(),
-            z.map(|p| num(p.chatter_hz)).unwrap_or_default(),
-            d.map(|p| num(p.chatter_hz)).unwrap_or_default(),
-        );
+        let mut row = vec![rpm.to_string()];
+        row.extend(z.map(|p| num(p.ap_lim_m)));
+        row.extend(d.map(|p| num(p.ap_lim_m)));
+        row.extend(z.map(|p| num(p.chatter_hz)));
+        row.extend(d.map(|p| num(p.chatter_hz)));
+        s.push_str(&row.join(","));
+        s.push('\n');
     }
     crate::atomic::write_atomic(path, s.as_bytes())
 }

@@ -1,4 +1,4 @@
-//! Reading and writing the data files of SPEC sections 2 and 3.
+//! Reading and writing the data files of docs/formats.md.
 //!
 //! * Time-series CSV ([`read_timeseries`], [`parse_timeseries`], [`write_timeseries`]):
 //!   `#` comment lines, a header with `t`, forces `fx fy fz`, responses `ax ay az`
@@ -35,7 +35,7 @@ pub use stream::{
 /// Minimum number of samples of a time-series record.
 pub const MIN_SAMPLES: usize = 16;
 
-/// Relative tolerance of every time step against the mean step (SPEC section 2).
+/// Relative tolerance of every time step against the mean step (docs/formats.md, "Time-series CSV").
 pub const TIME_STEP_TOLERANCE: f64 = 0.01;
 
 fn read_text(path: &Path) -> Result<String> {
@@ -191,7 +191,7 @@ fn role_of(name: &str) -> Role {
     }
 }
 
-/// Reads a time-series CSV (SPEC section 2). Warnings (ignored columns) are dropped; use
+/// Reads a time-series CSV (docs/formats.md, "Time-series CSV"). Warnings (ignored columns) are dropped; use
 /// [`read_timeseries_with_warnings`] to show them.
 pub fn read_timeseries(path: &Path) -> Result<TimeSeries> {
     read_timeseries_with_warnings(path).map(|(ts, _)| ts)
@@ -570,8 +570,35 @@ fn irregular_step(
         file,
         line,
         Some(tname),
-        format!("time step {step:.4e} s differs by more than 1 % from the {which} step {reference:.4e} s; the record must be uniformly sampled (a row is missing or repeated here, or the sampling rate changed)"),
+        format!(
+            "time step {} differs by more than 1 % from the {which} step {}; the record must be uniformly sampled (a row is missing or repeated here, or the sampling rate changed)",
+            seconds_text(step),
+            seconds_text(reference)
+        ),
     )
+}
+
+/// A duration for people: four significant digits in s, ms, µs or ns, trailing zeros
+/// dropped (`2.0000000000000018e-3` → `2 ms`, `1.0204e-3` → `1.02 ms`).
+pub fn seconds_text(t: f64) -> String {
+    if !t.is_finite() || t == 0.0 {
+        return format!("{t} s");
+    }
+    let (scale, unit) = match t.abs() {
+        a if a >= 1.0 => (1.0, "s"),
+        a if a >= 1e-3 => (1e3, "ms"),
+        a if a >= 1e-6 => (1e6, "µs"),
+        _ => (1e9, "ns"),
+    };
+    let v = t * scale;
+    // 4 significant digits: decimals left after the integer digits
+    let int_digits = (v.abs().log10().floor() as i32 + 1).max(1);
+    let decimals = (4 - int_digits).max(0) as usize;
+    let mut s = format!("{v:.decimals$}");
+    if s.contains('.') {
+        s = s.trim_end_matches('0').trim_end_matches('.').to_string();
+    }
+    format!("{s} {unit}")
 }
 
 /// Comment text: the line without its `#` and one following space.
@@ -655,7 +682,7 @@ pub fn write_timeseries(path: &Path, ts: &TimeSeries) -> Result<()> {
     write_atomic(path, format_timeseries(ts)?.as_bytes())
 }
 
-/// Formats an FRF as FRF CSV text (SPEC section 3).
+/// Formats an FRF as FRF CSV text (docs/formats.md, "FRF CSV").
 ///
 /// Fails when a channel's length differs from the grid, a value is NaN/Inf or the
 /// frequencies are not strictly increasing (the file would not read back).
@@ -716,12 +743,12 @@ pub fn format_frf_csv(frf: &Frf) -> Result<String> {
     Ok(out)
 }
 
-/// Writes an FRF CSV (SPEC section 3) atomically.
+/// Writes an FRF CSV (docs/formats.md, "FRF CSV") atomically.
 pub fn write_frf_csv(path: &Path, frf: &Frf) -> Result<()> {
     write_atomic(path, format_frf_csv(frf)?.as_bytes())
 }
 
-/// Reads an FRF CSV (SPEC section 3).
+/// Reads an FRF CSV (docs/formats.md, "FRF CSV").
 pub fn read_frf_csv(path: &Path) -> Result<Frf> {
     let text = read_text(path)?;
     parse_frf_csv(&text, path)
@@ -1001,6 +1028,15 @@ pub fn accelerance_to_receptance(points: &[(f64, Complex64)], channel: Channel) 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn durations_read_as_people_write_them() {
+        assert_eq!(seconds_text(2.0000000000000018e-3), "2 ms");
+        assert_eq!(seconds_text(1.0204e-3), "1.02 ms");
+        assert_eq!(seconds_text(9.765625e-5), "97.66 µs");
+        assert_eq!(seconds_text(1.5), "1.5 s");
+        assert_eq!(seconds_text(2.5e-9), "2.5 ns");
+    }
 
     #[test]
     fn python_complex_forms() {

@@ -1,4 +1,4 @@
-//! Time series of force, response and axis positions (SPEC section 2), in memory.
+//! Time series of force, response and axis positions (docs/formats.md, "Time-series CSV"), in memory.
 
 use crate::axis::Axis;
 use serde::{Deserialize, Serialize};

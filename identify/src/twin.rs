@@ -220,6 +220,42 @@ pub struct Provenance {
     pub command: String,
 }
 
+/// The schema name and version a twin file must carry.
+fn check_schema(schema: Option<&str>, version: u64, path: &Path) -> Result<()> {
+    if schema != Some(TWIN_SCHEMA) {
+        return Err(Error::Schema {
+            file: path.into(),
+            msg: format!(
+                "not an mtwin twin file (field \"schema\" is {}, expected \"{TWIN_SCHEMA}\"); \
+                 create one with `mtwin identify DATA.csv --out TWIN.json`",
+                schema
+                    .map(|s| format!("\"{s}\""))
+                    .unwrap_or("missing".into())
+            ),
+        });
+    }
+    if version > TWIN_VERSION as u64 {
+        return Err(Error::Schema {
+            file: path.into(),
+            msg: format!(
+                "twin schema version {version} was written by a newer mtwin; this mtwin \
+                 ({}) reads up to version {TWIN_VERSION}: upgrade mtwin",
+                env!("CARGO_PKG_VERSION")
+            ),
+        });
+    }
+    if version < 1 {
+        return Err(Error::Schema {
+            file: path.into(),
+            msg: format!(
+                "twin schema version {version} is not supported (this mtwin reads version \
+                 {TWIN_VERSION}); re-identify the twin from its data"
+            ),
+        });
+    }
+    Ok(())
+}
+
 /// A digital twin of the TCP dynamics over the workspace.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Twin {
@@ -274,48 +310,26 @@ impl Twin {
     }
 
     /// Parses a twin from JSON text; `path` names the source in messages.
+    ///
+    /// The text is parsed straight into a [`Twin`], so a field of the wrong type or a
+    /// missing field is reported at its line and column (`file:line:column`). When that
+    /// fails, the schema name and version are checked first: a file of another kind or
+    /// of a newer version is named as such rather than by its first odd field.
     pub fn from_json(text: &str, path: &Path) -> Result<Twin> {
-        let v: serde_json::Value = serde_json::from_str(text).map_err(|e| Error::Json {
-            path: path.into(),
-            source: e,
-        })?;
-        let schema = v.get("schema").and_then(|s| s.as_str());
-        if schema != Some(TWIN_SCHEMA) {
-            return Err(Error::Schema {
-                file: path.into(),
-                msg: format!(
-                    "not an mtwin twin file (field \"schema\" is {}, expected \"{TWIN_SCHEMA}\"); \
-                     create one with `mtwin identify DATA.csv --out TWIN.json`",
-                    schema
-                        .map(|s| format!("\"{s}\""))
-                        .unwrap_or("missing".into())
-                ),
-            });
-        }
-        let version = v.get("version").and_then(|s| s.as_u64()).unwrap_or(0);
-        if version > TWIN_VERSION as u64 {
-            return Err(Error::Schema {
-                file: path.into(),
-                msg: format!(
-                    "twin schema version {version} was written by a newer mtwin; this mtwin \
-                     ({}) reads up to version {TWIN_VERSION}: upgrade mtwin",
-                    env!("CARGO_PKG_VERSION")
-                ),
-            });
-        }
-        if version < 1 {
-            return Err(Error::Schema {
-                file: path.into(),
-                msg: format!(
-                    "twin schema version {version} is not supported (this mtwin reads version \
-                     {TWIN_VERSION}); re-identify the twin from its data"
-                ),
-            });
-        }
-        let twin: Twin = serde_json::from_value(v).map_err(|e| Error::Json {
-            path: path.into(),
-            source: e,
-        })?;
+        let twin: Twin = match serde_json::from_str(text) {
+            Ok(t) => t,
+            Err(e) => {
+                let v: serde_json::Value =
+                    serde_json::from_str(text).map_err(|e| Error::json(path, &e))?;
+                check_schema(
+                    v.get("schema").and_then(|s| s.as_str()),
+                    v.get("version").and_then(|s| s.as_u64()).unwrap_or(0),
+                    path,
+                )?;
+                return Err(Error::json(path, &e));
+            }
+        };
+        check_schema(Some(&twin.schema), u64::from(twin.version), path)?;
         twin.validate(path)?;
         Ok(twin)
     }
@@ -330,10 +344,7 @@ impl Twin {
     /// exactly what is written (the text is read back and validated first): a twin that
     /// [`Twin::load`] would refuse is never written, and the error names what is wrong.
     pub fn save(&self, path: &Path) -> Result<()> {
-        let text = serde_json::to_string_pretty(self).map_err(|e| Error::Json {
-            path: path.into(),
-            source: e,
-        })?;
+        let text = serde_json::to_string_pretty(self).map_err(|e| Error::json(path, &e))?;
         Twin::from_json(&text, path)
             .map_err(|e| Error::Numerical(format!("not written, the twin would not load: {e}")))?;
         write_atomic(path, text.as_bytes())

@@ -72,6 +72,7 @@ fn quiet() -> Output {
     Output {
         quiet: true,
         json: false,
+        verbose: false,
     }
 }
 
@@ -319,7 +320,7 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
                 rpm_min: 2000.0,
                 rpm_max: 20000.0,
                 speeds: 300,
-                sd_speeds: 0,
+                sd_speeds: Some(0),
                 sd_steps: 40,
                 plot: Some(dir.join(format!("{name}.svg"))),
             },

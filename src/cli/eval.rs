@@ -23,10 +23,10 @@ pub struct Args {
     /// With a `.uff`/`.unv` output: write binary dataset 58b instead of ASCII 58.
     #[arg(long)]
     pub uff_binary: bool,
-    /// Lowest frequency \[Hz\] (default: the twin's fitted band).
+    /// Lowest frequency in Hz (default: the twin's fitted band).
     #[arg(long)]
     pub fmin: Option<f64>,
-    /// Highest frequency \[Hz\] (default: the twin's fitted band).
+    /// Highest frequency in Hz (default: the twin's fitted band).
     #[arg(long)]
     pub fmax: Option<f64>,
     /// Number of lines, linearly spaced.

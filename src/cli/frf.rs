@@ -16,12 +16,13 @@ pub const STREAM_MIN_BYTES: u64 = 8 << 20;
 /// Arguments of `mtwin frf`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Time-series CSV files (SPEC section 2); records with the same excitation
-    /// direction are averaged.
+    /// Time-series CSV files (docs/formats.md, "Time-series CSV"); records with the
+    /// same excitation direction are averaged.
     #[arg(required = true)]
     pub files: Vec<PathBuf>,
-    /// Output FRF, receptance in m/N with coherence: FRF CSV (SPEC section 3), or
-    /// Universal File Format dataset 58 when the name ends in `.uff` or `.unv`.
+    /// Output FRF, receptance in m/N with coherence: FRF CSV (docs/formats.md, "FRF
+    /// CSV"), or Universal File Format dataset 58 when the name ends in `.uff` or `.unv`
+    /// (docs/formats.md, "Universal files").
     #[arg(long)]
     pub out: PathBuf,
     /// With a `.uff`/`.unv` output: write binary dataset 58b instead of ASCII 58.
@@ -81,9 +82,12 @@ fn estimate(a: &Args, opts: &FrfOptions, out: &Output) -> Result<(FrfEstimate, R
     if let Some(file) = stream_candidate(a, opts) {
         let scan = identify::read::scan_timeseries(file)?;
         if excitation_of_scan(&scan, opts).context("FRF estimation")? == Excitation::Continuous {
-            for w in &scan.warnings {
-                out.say(format!("warning: {}: {w}", file.display()));
-            }
+            let warnings: Vec<String> = scan
+                .warnings
+                .iter()
+                .map(|w| format!("{}: {w}", file.display()))
+                .collect();
+            out.warnings(&warnings);
             let est = estimate_frf_streamed(&scan, opts).context("FRF estimation")?;
             return Ok((est, Reading::Streamed { rows: scan.rows }));
         }
@@ -95,6 +99,49 @@ fn estimate(a: &Args, opts: &FrfOptions, out: &Output) -> Result<(FrfEstimate, R
     let series = read_series(&a.files, out)?;
     let est = estimate_frf(&series, opts).context("FRF estimation")?;
     Ok((est, Reading::InMemory))
+}
+
+/// What the averages of an estimate are: impact hits, Welch segments, chirp periods or
+/// whole chirp records.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum AverageUnit {
+    Hit,
+    Segment,
+    Period,
+    Record,
+}
+
+impl AverageUnit {
+    /// From the estimate's method text (`"H1, impact: ..."`, `"H1, Welch: ..."`,
+    /// `"H1, chirp: ... (periods averaged) ..."`).
+    fn of(method: &str) -> Self {
+        if method.contains(", impact:") {
+            AverageUnit::Hit
+        } else if method.contains(", chirp:") {
+            if method.contains("periods averaged") {
+                AverageUnit::Period
+            } else {
+                AverageUnit::Record
+            }
+        } else {
+            AverageUnit::Segment
+        }
+    }
+
+    fn plural(self) -> &'static str {
+        match self {
+            AverageUnit::Hit => "hits",
+            AverageUnit::Segment => "segments",
+            AverageUnit::Period => "periods",
+            AverageUnit::Record => "records",
+        }
+    }
+
+    /// `n` of them in words: `5 hits`, `11 segments`, `1 record`.
+    fn count(self, n: usize) -> String {
+        let p = self.plural();
+        format!("{n} {}", if n == 1 { &p[..p.len() - 1] } else { p })
+    }
 }
 
 /// FRF options from the command line.
@@ -127,9 +174,7 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
             a.files[0].display()
         ));
     }
-    for w in &est.warnings {
-        out.say(format!("warning: {w}"));
-    }
+    out.warnings(&est.warnings);
     let format = super::frf_io::write_frf(&a.out, &est.frf, a.uff_binary)?;
     let mut chans = Vec::new();
     for c in &est.frf.channels {
@@ -147,17 +192,19 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
         ));
         chans.push(serde_json::json!({"channel": c.channel.name(), "mean_coherence": mean_coh}));
     }
+    let unit = AverageUnit::of(&est.method);
     out.say(format!(
-        "{} ({}, Δf = {:.3} Hz, {} hits used, {} dropped) -> {} ({format})",
+        "{} ({}, Δf = {:.3} Hz, {} used, {} dropped) -> {} ({format})",
         est.method,
         a.estimator.to_uppercase(),
         est.df_hz,
-        est.hits_used,
+        unit.count(est.hits_used),
         est.hits_dropped.len(),
         a.out.display()
     ));
     out.json(&serde_json::json!({
         "out": a.out, "method": est.method, "df_hz": est.df_hz, "hits_used": est.hits_used,
+        "averages": est.hits_used, "averages_of": unit.plural(),
         "hits_dropped": est.hits_dropped, "warnings": est.warnings, "channels": chans,
         "exp_window_sigma": est.exp_window_sigma, "reading": reading.name(),
     }));

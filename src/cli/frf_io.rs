@@ -1,4 +1,4 @@
-//! FRF files on the command line: measured FRFs as input (FRF CSV of SPEC section 3 or
+//! FRF files on the command line: measured FRFs as input (FRF CSV of docs/formats.md or
 //! Universal File Format dataset 58/58b) and FRF output as CSV or UFF by extension.
 
 use super::{parse_pose, BadInput};
@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 /// Options for reading measured FRFs (UFF selection, pose).
 #[derive(Debug, Clone, clap::Args)]
 pub struct FrfInputArgs {
-    /// Pose X,Y,Z \[m\] of FRF inputs (UFF or FRF CSV) that do not carry one; an FRF CSV
+    /// Pose X,Y,Z in metres of FRF inputs (UFF or FRF CSV) that do not carry one; an FRF CSV
     /// may carry it as a comment `# pose=X,Y,Z`. Default 0,0,0.
     #[arg(long, value_parser = parse_pose, allow_hyphen_values = true)]
     pub pose: Option<[f64; 3]>,
@@ -150,7 +150,7 @@ pub fn read_measured(path: &Path, a: &FrfInputArgs) -> Result<MeasuredFrf> {
 }
 
 /// Writes an FRF by the output's extension: UFF dataset 58 (ASCII) for `.uff`/`.unv`,
-/// 58b (binary) when `binary`, the FRF CSV of SPEC section 3 otherwise. Atomic.
+/// 58b (binary) when `binary`, the FRF CSV of docs/formats.md otherwise. Atomic.
 pub fn write_frf(path: &Path, frf: &Frf, binary: bool) -> Result<&'static str> {
     if is_uff(path) {
         let funcs = uff::uff_from_frf(frf, 1);

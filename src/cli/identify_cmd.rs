@@ -12,20 +12,20 @@ use std::path::PathBuf;
 pub struct Args {
     /// Time-series CSV files of the campaign (grouped by pose and excitation axis), or
     /// measured FRFs instead: Universal File Format dataset 58/58b (`.uff`, `.unv`) or
-    /// FRF CSV files (SPEC section 3), one pose per file.
+    /// FRF CSV files, one pose per file (formats: docs/formats.md).
     #[arg(required = true)]
     pub files: Vec<PathBuf>,
-    /// Output twin file (JSON).
+    /// Output twin file (JSON; docs/formats.md, "Twin file").
     #[arg(long)]
     pub out: PathBuf,
     /// Number of modes (pole pairs) instead of the automatic choice from the
     /// stabilization diagram.
     #[arg(long)]
     pub order: Option<usize>,
-    /// Lower end of the fitted band \[Hz\].
+    /// Lower end of the fitted band in Hz.
     #[arg(long)]
     pub fmin: Option<f64>,
-    /// Upper end of the fitted band \[Hz\].
+    /// Upper end of the fitted band in Hz.
     #[arg(long)]
     pub fmax: Option<f64>,
     /// FRF estimator: h1, h2, hv.
@@ -34,7 +34,7 @@ pub struct Args {
     /// Excitation: auto, impact, continuous, chirp.
     #[arg(long, default_value = "auto", value_parser = ["auto", "impact", "continuous", "chirp"])]
     pub excitation: String,
-    /// Records within this distance \[m\] share a pose.
+    /// Records within this distance in metres share a pose.
     #[arg(long, default_value_t = 1e-3)]
     pub pose_tol: f64,
     /// Line weighting of the fit: auto (coherence weighting, then the inverse-variance,
@@ -119,9 +119,16 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
     }
     res.twin.provenance.command = std::env::args().collect::<Vec<_>>().join(" ");
     res.twin.save(&a.out)?;
-    for w in &res.warnings {
-        out.say(format!("warning: {w}"));
+    if a.fmax.is_some() {
+        // the estimate's hint about identify's automatic band does not apply when the
+        // band's top is given
+        for w in &mut res.warnings {
+            if let Some(i) = w.find(" (identify's automatic band stops there)") {
+                w.truncate(i);
+            }
+        }
     }
+    out.warnings(&res.warnings);
     let twin = &res.twin;
     out.say(format!(
         "{} {}, {} poses, channels {} (read {:.2} s, total {:.2} s)",

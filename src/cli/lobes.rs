@@ -8,7 +8,7 @@ use identify::interpolate::TwinEvaluator;
 use identify::lobes::{lobes_sd, lobes_zoa, write_lobes_csv, Cut, SdOptions, Tool};
 use identify::model::{ChannelModel, ModeNum};
 use identify::twin::Twin;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Arguments of `mtwin lobes`.
 #[derive(Debug, clap::Args)]
@@ -19,7 +19,11 @@ pub struct Args {
     /// Pose X,Y,Z in metres where the tool-tip FRF is taken.
     #[arg(long, value_parser = parse_pose, allow_hyphen_values = true)]
     pub at: [f64; 3],
-    /// Output CSV: rpm, ap_lim_zoa_m, ap_lim_sd_m, chatter_hz_zoa, chatter_hz_sd.
+    /// Output CSV: rpm, ap_lim_zoa_m, ap_lim_sd_m, chatter_hz_zoa, chatter_hz_sd (limits
+    /// in m, `inf` = no chatter found; docs/formats.md, "Lobes CSV"). With
+    /// `--sd-speeds 0` the two SD columns are left out; with `--sd-speeds N` other than
+    /// `--speeds` the semi-discretisation is written to a second file next to it,
+    /// `<OUT without .csv>.sd.csv` (rpm, ap_lim_sd_m, chatter_hz_sd).
     #[arg(long)]
     pub out: PathBuf,
     /// Number of teeth.
@@ -52,10 +56,12 @@ pub struct Args {
     /// Number of spindle speeds (log-spaced).
     #[arg(long, default_value_t = 200)]
     pub speeds: usize,
-    /// Also compute the semi-discretisation (exact for the linear delay equation;
-    /// slower) at this many of the speeds (0 = zero-order method only).
-    #[arg(long, default_value_t = 40)]
-    pub sd_speeds: usize,
+    /// Number of speeds (log-spaced) of the semi-discretisation (exact for the linear
+    /// delay equation; slower). Default: the same speeds as the zero-order method, in
+    /// the same file; 0 = zero-order method only; any other number: a second file (see
+    /// --out).
+    #[arg(long)]
+    pub sd_speeds: Option<usize>,
     /// Semi-discretisation steps per engaged tooth period.
     #[arg(long, default_value_t = 40)]
     pub sd_steps: usize,
@@ -70,6 +76,12 @@ fn speeds(lo: f64, hi: f64, n: usize) -> Vec<f64> {
     }
     let r = (hi / lo).powf(1.0 / (n - 1) as f64);
     (0..n).map(|i| lo * r.powi(i as i32)).collect()
+}
+
+/// The semi-discretisation's own file next to `out`: `L.csv` → `L.sd.csv`.
+fn sd_csv_path(out: &Path) -> PathBuf {
+    let stem = out.file_stem().unwrap_or_default().to_string_lossy();
+    out.with_file_name(format!("{stem}.sd.csv"))
 }
 
 /// Runs `mtwin lobes`.
@@ -121,8 +133,9 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
     let t0 = std::time::Instant::now();
     let zoa = lobes_zoa(&model, &tool, &cut, &rpm)?;
     let t_zoa = t0.elapsed();
-    let (sd, t_sd) = if a.sd_speeds > 0 {
-        let rpm_sd = speeds(a.rpm_min, a.rpm_max, a.sd_speeds);
+    let sd_speeds = a.sd_speeds.unwrap_or(a.speeds);
+    let (sd, t_sd) = if sd_speeds > 0 {
+        let rpm_sd = speeds(a.rpm_min, a.rpm_max, sd_speeds);
         let t1 = std::time::Instant::now();
         let opts = SdOptions {
             steps: a.sd_steps.max(2),
@@ -132,18 +145,15 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
     } else {
         (Vec::new(), std::time::Duration::ZERO)
     };
-    // The CSV holds both on one grid when they share it; otherwise the ZOA grid and SD
-    // values on their own rows are written as two files.
-    if sd.is_empty() || sd.len() == zoa.len() {
-        write_lobes_csv(&a.out, &zoa, &sd)?;
-    } else {
+    // The CSV holds both on one grid when they share it (the default); otherwise the SD
+    // lobes go to their own file (no empty columns either way).
+    let sd_path = (!sd.is_empty() && sd.len() != zoa.len()).then(|| sd_csv_path(&a.out));
+    if let Some(p) = &sd_path {
+        check_output_not_input(p, std::slice::from_ref(&a.twin))?;
         write_lobes_csv(&a.out, &zoa, &[])?;
-        let sd_path = a.out.with_extension("sd.csv");
-        write_lobes_csv(&sd_path, &[], &sd)?;
-        out.say(format!(
-            "semi-discretisation lobes -> {}",
-            sd_path.display()
-        ));
+        write_lobes_csv(p, &[], &sd)?;
+    } else {
+        write_lobes_csv(&a.out, &zoa, &sd)?;
     }
     let min_zoa = zoa.iter().map(|p| p.ap_lim_m).fold(f64::INFINITY, f64::min);
     let min_sd = sd.iter().map(|p| p.ap_lim_m).fold(f64::INFINITY, f64::min);
@@ -202,9 +212,25 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
         identify::atomic::write_atomic(p, svg.as_bytes())?;
         out.say(format!("plot -> {}", p.display()));
     }
-    out.say(format!("lobes -> {}", a.out.display()));
+    match &sd_path {
+        Some(p) => {
+            out.say(format!("zero-order lobes -> {}", a.out.display()));
+            out.say(format!(
+                "semi-discretisation lobes ({} speeds, not the {} of the zero-order method) -> {}",
+                sd.len(),
+                zoa.len(),
+                p.display()
+            ));
+        }
+        None if sd.is_empty() => out.say(format!("zero-order lobes -> {}", a.out.display())),
+        None => out.say(format!(
+            "lobes (zero-order and semi-discretisation) -> {}",
+            a.out.display()
+        )),
+    }
     out.json(&serde_json::json!({
         "out": a.out,
+        "sd_out": sd_path,
         "min_ap_zoa_m": min_zoa,
         "min_ap_sd_m": if sd.is_empty() { None } else { Some(min_sd) },
         "zoa": zoa.iter().map(|p| serde_json::json!({"rpm": p.rpm, "ap_lim_m": p.ap_lim_m, "chatter_hz": p.chatter_hz})).collect::<Vec<_>>(),

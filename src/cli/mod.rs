@@ -12,6 +12,7 @@ mod lobes;
 mod refit;
 mod refit_report;
 mod simulate;
+mod warnings;
 
 use anyhow::Result;
 use clap::{Parser, Subcommand};
@@ -26,14 +27,18 @@ pub struct Cli {
     /// Print nothing but errors.
     #[arg(long, short, global = true)]
     pub quiet: bool,
-    /// Print the summary as JSON on stdout.
+    /// Print the summary as JSON on stdout (with every warning).
     #[arg(long, global = true)]
     pub json: bool,
+    /// Print every warning; by default warnings that differ only by pose, file or
+    /// numbers are said once, with how many records and poses they concern.
+    #[arg(long, short, global = true)]
+    pub verbose: bool,
     #[command(subcommand)]
     pub cmd: Cmd,
 }
 
-/// The commands (SPEC section 1).
+/// The commands (file formats: docs/formats.md).
 #[derive(Debug, Subcommand)]
 pub enum Cmd {
     /// The whole mission on the built-in virtual machine, no input needed: campaign,
@@ -85,6 +90,7 @@ pub fn run(cli: Cli) -> Result<()> {
     let out = Output {
         quiet: cli.quiet,
         json: cli.json,
+        verbose: cli.verbose,
     };
     match cli.cmd {
         Cmd::Demo(a) => demo::run(a, &out),
@@ -106,6 +112,8 @@ pub struct Output {
     pub quiet: bool,
     /// JSON summary on stdout.
     pub json: bool,
+    /// Every warning, not a summary per kind.
+    pub verbose: bool,
 }
 
 impl Output {
@@ -113,6 +121,17 @@ impl Output {
     pub fn say(&self, msg: impl AsRef<str>) {
         if !self.quiet && !self.json {
             eprintln!("{}", msg.as_ref());
+        }
+    }
+
+    /// Warnings on stderr unless quiet or JSON: each one with `--verbose`, else those
+    /// that differ only by pose, file or numbers said once (see [`warnings::summarise`]).
+    pub fn warnings(&self, warnings: &[String]) {
+        if self.quiet || self.json {
+            return;
+        }
+        for line in warnings::summarise(warnings, self.verbose) {
+            eprintln!("{line}");
         }
     }
 
@@ -199,7 +218,8 @@ pub fn parse_pose(s: &str) -> Result<[f64; 3], String> {
     Ok(p)
 }
 
-/// Reads time-series files in parallel, printing reader warnings.
+/// Reads time-series files in parallel, printing reader warnings (summarised, see
+/// [`Output::warnings`]).
 pub fn read_series(
     files: &[PathBuf],
     out: &Output,
@@ -210,12 +230,12 @@ pub fn read_series(
         .map(|f| identify::read::read_timeseries_with_warnings(f))
         .collect();
     let mut series = Vec::with_capacity(res.len());
+    let mut warnings = Vec::new();
     for r in res {
         let (ts, warns) = r?;
-        for w in warns {
-            out.say(format!("warning: {}: {w}", ts.source));
-        }
+        warnings.extend(warns.into_iter().map(|w| format!("{}: {w}", ts.source)));
         series.push(ts);
     }
+    out.warnings(&warnings);
     Ok(series)
 }

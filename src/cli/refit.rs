@@ -26,19 +26,19 @@ pub struct Args {
     /// alone) or paper (intermediate FRF + weighted refit).
     #[arg(long, default_value = "time", value_parser = ["time", "modal", "paper"])]
     pub method: String,
-    /// Refit when the simulated response fits worse than 100 - this \[%\].
+    /// Refit when the simulated response fits worse than 100 - this (percent).
     #[arg(long, default_value_t = 5.0)]
     pub drift_threshold: f64,
     /// Refit even when no drift is detected.
     #[arg(long)]
     pub force: bool,
-    /// Paper's PSD threshold on the response [m²/Hz] (default: automatic).
+    /// Paper's PSD threshold on the response in m²/Hz (default: automatic).
     #[arg(long)]
     pub psd_threshold: Option<f64>,
     /// Minimum coherence of a line to be used.
     #[arg(long, default_value_t = 0.8)]
     pub min_coherence: f64,
-    /// Length \[m\] over which the change spreads to other poses (weight exp(-(d/L)²));
+    /// Length in metres over which the change spreads to other poses (weight exp(-(d/L)²));
     /// default half the workspace diagonal; `inf` = everywhere alike.
     #[arg(long)]
     pub spread_length: Option<f64>,

@@ -1,5 +1,5 @@
 //! Diagnosis: what the twin gets wrong on measured data, why, the extended twin, and the
-//! gain on held-out data (SPEC section 4).
+//! gain on held-out data (docs/formats.md, "Diagnosis output").
 //!
 //! Method — hypothesis testing by model extension:
 //! 1. Every record is split in time: the first part builds the evidence and the
@@ -153,7 +153,7 @@ pub struct CandidateScore {
     pub details: Map<String, Value>,
 }
 
-/// The diagnosis (`diagnosis.json`, SPEC section 4, plus evidence).
+/// The diagnosis (`diagnosis.json`, docs/formats.md, "Diagnosis output", plus evidence).
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct Diagnosis {
     /// The named cause.
