@@ -206,24 +206,10 @@ fn lumped_campaign_twin_fits_the_truth_at_measured_and_unmeasured_poses() {
 /// band cut at 1.7 kHz, yx fitted, 20.8 % vs truth).
 #[test]
 fn lumped_log_sweep_twin_beats_the_raw_ratio_of_its_record() {
-    use lumped::excitation::{sweep, Sweep};
-    use lumped::measure::{run, unit};
     use num_complex::Complex64;
     let dir = tmp();
     let machine = Machine::nominal();
-    let disp = Setup::displacement();
-    let fs = disp.daq.fs_sim();
-    let f = sweep(
-        Sweep::Logarithmic,
-        fs,
-        (9.5 * fs) as usize,
-        20.0,
-        2500.0,
-        8.0,
-        40.0,
-        unit(0),
-    );
-    let rec = run(&machine, &disp, &f, &[CENTRE]).into_record(&disp, 1500, vec![]);
+    let rec = lumped::measure::log_sweep_record(&machine, CENTRE, 1500);
     let path = dir.path().join("sweep.csv");
     rec.write_csv(&path).expect("write");
     let twin_path = dir.path().join("twin.json");

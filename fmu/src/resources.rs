@@ -239,25 +239,10 @@ impl FmuTwin {
     }
 }
 
-/// `YYYY-MM-DDTHH:MM:SSZ` of a Unix time (UTC; civil-from-days, H. Hinnant).
+/// `YYYY-MM-DDTHH:MM:SSZ` of a Unix time (UTC).
 pub fn utc_iso(t: u64) -> String {
-    let days = (t / 86_400) as i64;
-    let sod = t % 86_400;
-    let z = days + 719_468;
-    let era = z.div_euclid(146_097);
-    let doe = z - era * 146_097;
-    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
-    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
-    let mp = (5 * doy + 2) / 153;
-    let d = doy - (153 * mp + 2) / 5 + 1;
-    let m = if mp < 10 { mp + 3 } else { mp - 9 };
-    let y = yoe + era * 400 + i64::from(m <= 2);
-    format!(
-        "{y:04}-{m:02}-{d:02}T{:02}:{:02}:{:02}Z",
-        sod / 3600,
-        (sod % 3600) / 60,
-        sod % 60
-    )
+    humantime::format_rfc3339_seconds(std::time::UNIX_EPOCH + std::time::Duration::from_secs(t))
+        .to_string()
 }
 
 #[cfg(test)]

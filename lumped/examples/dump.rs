@@ -9,9 +9,9 @@
 //! and a README.md describing it. Seed 1 and the nominal machine unless told otherwise.
 
 use lumped::effects::{visible, write_diagnosis_material};
-use lumped::excitation::{sweep, Milling, Sweep};
+use lumped::excitation::Milling;
 use lumped::frf::linspace;
-use lumped::measure::{impact_record, milling_clean, milling_comments, run, unit, Setup};
+use lumped::measure::{impact_record, log_sweep_record, milling_clean, milling_comments, Setup};
 use lumped::modal::pair_modes;
 use lumped::record::write_atomic;
 use lumped::structure::{Joint, Machine, Pose, CENTRE};
@@ -123,26 +123,8 @@ fn dump(out: &Path, seed: u64, random: bool) -> Result<(), lumped::Error> {
 
     // logarithmic sweep at the centre, displacement
     let disp = Setup::displacement();
-    let fs = disp.daq.fs_sim();
-    let f = sweep(
-        Sweep::Logarithmic,
-        fs,
-        (9.5 * fs) as usize,
-        20.0,
-        2500.0,
-        8.0,
-        40.0,
-        unit(0),
-    );
-    let c = run(&machine, &disp, &f, &[CENTRE]);
-    c.into_record(
-        &disp,
-        seed * 1000 + 500,
-        vec![
-            "shaker, logarithmic sweep 20-2500 Hz along x in 8 s, 40 N, then 1.5 s at rest".into(),
-        ],
-    )
-    .write_csv(&out.join("sweep_centre_x.csv"))?;
+    log_sweep_record(&machine, CENTRE, seed * 1000 + 500)
+        .write_csv(&out.join("sweep_centre_x.csv"))?;
     eprintln!("sweep: {:.1} s", t0.elapsed().as_secs_f64());
 
     // truth

@@ -328,3 +328,28 @@ pub fn milling_comments(m: &Milling) -> Vec<String> {
 pub fn sub_seed(rng: &mut StdRng) -> u64 {
     rng.gen()
 }
+
+/// A shaker test at `pose`: a logarithmic sweep 20-2500 Hz along x in 8 s at 40 N, then
+/// 1.5 s at rest, measured with the displacement sensor (the data set's
+/// `sweep_centre_x.csv`).
+pub fn log_sweep_record(machine: &Machine, pose: Pose, seed: u64) -> Record {
+    let disp = Setup::displacement();
+    let fs = disp.daq.fs_sim();
+    let f = crate::excitation::sweep(
+        crate::excitation::Sweep::Logarithmic,
+        fs,
+        (9.5 * fs) as usize,
+        20.0,
+        2500.0,
+        8.0,
+        40.0,
+        unit(0),
+    );
+    run(machine, &disp, &f, &[pose]).into_record(
+        &disp,
+        seed,
+        vec![
+            "shaker, logarithmic sweep 20-2500 Hz along x in 8 s, 40 N, then 1.5 s at rest".into(),
+        ],
+    )
+}

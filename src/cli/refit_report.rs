@@ -314,23 +314,8 @@ fn response_section(b: &mut String, old: &Twin, new: &Twin, series: &[TimeSeries
 
 /// `YYYY-MM-DD HH:MM` (UTC) of a Unix time.
 fn utc(t: u64) -> String {
-    // civil-from-days (H. Hinnant)
-    let days = (t / 86_400) as i64;
-    let sod = t % 86_400;
-    let z = days + 719_468;
-    let era = z.div_euclid(146_097);
-    let doe = z - era * 146_097;
-    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
-    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
-    let mp = (5 * doy + 2) / 153;
-    let d = doy - (153 * mp + 2) / 5 + 1;
-    let m = if mp < 10 { mp + 3 } else { mp - 9 };
-    let y = yoe + era * 400 + i64::from(m <= 2);
-    format!(
-        "{y:04}-{m:02}-{d:02} {:02}:{:02}",
-        sod / 3600,
-        (sod % 3600) / 60
-    )
+    let iso = mtwin_fmu::resources::utc_iso(t);
+    format!("{} {}", &iso[..10], &iso[11..16])
 }
 
 /// The history table and the mode frequencies at `pose` over the twin's life.
