@@ -372,20 +372,11 @@ fn noise_floor(prep: &Prepared) -> Option<f64> {
 /// Weighted noise energy per line implied by the coherence (summed over channels), as in
 /// [`noise_floor`]; `None` without coherence.
 fn noise_per_line(prep: &Prepared) -> Option<Vec<f64>> {
-    let mut acc = vec![0.0; prep.n_lines()];
-    let mut any = false;
-    for (ci, ch) in prep.band.channels.iter().enumerate() {
-        let Some(g) = &ch.coherence else { continue };
-        any = true;
-        for (k, &g) in g.iter().enumerate() {
-            let w = prep.w[ci][k];
-            if w > 0.0 {
-                let g = g.clamp(1e-6, 1.0);
-                acc[k] += w * w * prep.h[ci][k].norm_sqr() * (1.0 - g) / g;
-            }
-        }
-    }
-    any.then_some(acc)
+    noise_lines_per_channel(prep).map(|per| {
+        (0..prep.n_lines())
+            .map(|k| per.iter().map(|c| c[k]).sum())
+            .collect()
+    })
 }
 
 /// Weighted noise energy per channel and line implied by the coherence (zero without
