@@ -14,7 +14,7 @@ mod refit_report;
 mod simulate;
 mod warnings;
 
-use anyhow::Result;
+use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use std::path::{Path, PathBuf};
 
@@ -94,15 +94,60 @@ pub fn run(cli: Cli) -> Result<()> {
     };
     match cli.cmd {
         Cmd::Demo(a) => demo::run(a, &out),
-        Cmd::Frf(a) => frf::run(a, &out),
-        Cmd::Identify(a) => identify_cmd::run(a, &out),
+        Cmd::Frf(mut a) => {
+            a.files = expand_folders(&a.files)?;
+            frf::run(a, &out)
+        }
+        Cmd::Identify(mut a) => {
+            a.files = expand_folders(&a.files)?;
+            identify_cmd::run(a, &out)
+        }
         Cmd::Eval(a) => eval::run(a, &out),
         Cmd::Simulate(a) => simulate::run(a, &out),
-        Cmd::Refit(a) => refit::run(a, &out),
-        Cmd::Diagnose(a) => diagnose::run(a, &out),
+        Cmd::Refit(mut a) => {
+            a.files = expand_folders(&a.files)?;
+            refit::run(a, &out)
+        }
+        Cmd::Diagnose(mut a) => {
+            a.files = expand_folders(&a.files)?;
+            diagnose::run(a, &out)
+        }
         Cmd::Export(a) => export::run(a, &out),
         Cmd::Lobes(a) => lobes::run(a, &out),
     }
+}
+
+/// Input files with each folder replaced by the data files in it (`*.csv`, `*.uff`,
+/// `*.unv`, sorted by name; not recursive), so `mtwin identify campaign/` reads a
+/// campaign folder. A folder without such files is an error that names it.
+pub fn expand_folders(files: &[PathBuf]) -> Result<Vec<PathBuf>> {
+    let mut out = Vec::new();
+    for f in files {
+        if !f.is_dir() {
+            out.push(f.clone());
+            continue;
+        }
+        let mut inside: Vec<PathBuf> = std::fs::read_dir(f)
+            .with_context(|| format!("{}: cannot list the folder", f.display()))?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| {
+                p.is_file()
+                    && p.extension().and_then(|e| e.to_str()).is_some_and(|e| {
+                        ["csv", "uff", "unv"].contains(&e.to_ascii_lowercase().as_str())
+                    })
+            })
+            .collect();
+        if inside.is_empty() {
+            return Err(BadInput(format!(
+                "{}: a folder without data files (*.csv, *.uff, *.unv)",
+                f.display()
+            ))
+            .into());
+        }
+        inside.sort();
+        out.extend(inside);
+    }
+    Ok(out)
 }
 
 /// How to print.

@@ -483,8 +483,23 @@ pub(super) fn holdout_fit_each<'a>(
     twin_of: impl Fn(usize) -> &'a Twin,
     splits: &[Split],
 ) -> Result<f64> {
+    Ok(holdout_scores_each(twin_of, splits, None)?.0)
+}
+
+/// The held-out fit \[%\] of [`holdout_fit_each`] and, when `band` (lo, hi \[Hz\]) is
+/// given, the same fit of the held-out responses band-passed to it (every held-out
+/// segment's spectrum, lines in the band only; Parseval): how much better the twin
+/// predicts the vibration where an effect acts, which the whole response's fit dilutes
+/// when the effect's mode carries little of the response power.
+pub(super) fn holdout_scores_each<'a>(
+    twin_of: impl Fn(usize) -> &'a Twin,
+    splits: &[Split],
+    band: Option<(f64, f64)>,
+) -> Result<(f64, Option<f64>)> {
     let mut meas = Vec::new();
     let mut sim = Vec::new();
+    let (mut err_band, mut pow_band) = (0.0, 0.0);
+    let mut planner = realfft::RealFftPlanner::<f64>::new();
     for (i, s) in splits.iter().enumerate() {
         let twin = twin_of(i);
         let ts = &s.full;
@@ -503,14 +518,40 @@ pub(super) fn holdout_fit_each<'a>(
             if unknown_force && !twin.channels.iter().any(|c| c.output == a) {
                 continue;
             }
-            meas.extend_from_slice(&m[s.holdout_start..]);
-            sim.extend_from_slice(&y[a.index()][s.holdout_start..]);
+            let (m, y) = (&m[s.holdout_start..], &y[a.index()][s.holdout_start..]);
+            meas.extend_from_slice(m);
+            sim.extend_from_slice(y);
+            if let Some((lo, hi)) = band {
+                let n = m.len();
+                if n < 4 {
+                    continue;
+                }
+                let fft = planner.plan_fft_forward(n);
+                let spectrum = |v: &[f64]| {
+                    let mut x = v.to_vec();
+                    let mut out = fft.make_output_vec();
+                    fft.process(&mut x, &mut out).ok().map(|_| out)
+                };
+                let (Some(fm), Some(fy)) = (spectrum(m), spectrum(y)) else {
+                    continue;
+                };
+                let df = 1.0 / (n as f64 * ts.dt);
+                for (k, (a, b)) in fm.iter().zip(&fy).enumerate() {
+                    let f = k as f64 * df;
+                    if f >= lo && f <= hi {
+                        err_band += (a - b).norm_sqr();
+                        pow_band += a.norm_sqr();
+                    }
+                }
+            }
         }
     }
     if meas.is_empty() {
         return Err(Error::BadInput("no response column to compare with".into()));
     }
-    Ok(fit_percent_real(&meas, &sim))
+    let in_band =
+        (band.is_some() && pow_band > 0.0).then(|| 100.0 * (1.0 - (err_band / pow_band).sqrt()));
+    Ok((fit_percent_real(&meas, &sim), in_band))
 }
 
 /// The records split by force level (peak force below / above the geometric mean of the

@@ -11,6 +11,82 @@ use serde_json::{json, Map};
 use std::f64::consts::PI;
 
 pub(super) fn cand_unmodeled_mode(twin: &Twin, model: &ModalModel, pts: &[Points]) -> Option<Cand> {
+    let (new, k, ch) = add_mode_at_peak(model, pts)?;
+    let nm = new.modes[k];
+    let ext = map_models(twin, |pm| {
+        let mut pm = pm.clone();
+        pm.modes.push(nm);
+        for c in &mut pm.channels {
+            let n = new
+                .channel(c.channel)
+                .map_or(ModeNum::default(), |nc| nc.num[k]);
+            c.num.push(n);
+        }
+        pm
+    });
+    let mut d = Map::new();
+    d.insert("freq_hz".into(), json!(nm.freq_hz()));
+    d.insert("damping".into(), json!(nm.zeta));
+    d.insert("axis".into(), json!(ch.output.to_string()));
+    Some(Cand {
+        cause: Cause::UnmodeledMode,
+        chi: chi(&new, pts, 0.0),
+        twin: ext,
+        details: d,
+        per_record: Vec::new(),
+    })
+}
+
+/// A new part that adds a mode usually loads a neighbour too (a heavier tool lowers the
+/// tool mode): when the best single-mode retune (`retuned`, from `model`) leaves a
+/// significant misfit, a mode is added at the largest residual peak left after it,
+/// and the twin gets both (the retune and the new mode).
+pub(super) fn cand_unmodeled_mode_after_retune(
+    twin: &Twin,
+    model: &ModalModel,
+    pts: &[Points],
+    retuned: &(f64, usize, ModalModel),
+    chi_none: f64,
+) -> Option<Cand> {
+    let (c_retuned, k_moved, moved) = retuned;
+    if *c_retuned <= chi_none {
+        return None;
+    }
+    let (new, k, ch) = add_mode_at_peak(moved, pts)?;
+    let nm = new.modes[k];
+    let ext = map_models(twin, |pm| {
+        let mut pm = pm.clone();
+        crate::modal_update::apply_change(&mut pm, model, moved, 1.0);
+        pm.modes.push(nm);
+        for c in &mut pm.channels {
+            let n = new
+                .channel(c.channel)
+                .map_or(ModeNum::default(), |nc| nc.num[k]);
+            c.num.push(n);
+        }
+        pm
+    });
+    let mut d = Map::new();
+    d.insert("freq_hz".into(), json!(nm.freq_hz()));
+    d.insert("damping".into(), json!(nm.zeta));
+    d.insert("axis".into(), json!(ch.output.to_string()));
+    d.insert(
+        "moved_mode_hz".into(),
+        json!(model.modes[*k_moved].freq_hz()),
+    );
+    d.insert("moved_to_hz".into(), json!(moved.modes[*k_moved].freq_hz()));
+    Some(Cand {
+        cause: Cause::UnmodeledMode,
+        chi: chi(&new, pts, 0.0),
+        twin: ext,
+        details: d,
+        per_record: Vec::new(),
+    })
+}
+
+/// `model` with a mode added at the largest residual peak of `pts` (in standard
+/// errors) and fitted there: (the model, the new mode's index, the peak's channel).
+fn add_mode_at_peak(model: &ModalModel, pts: &[Points]) -> Option<(ModalModel, usize, Channel)> {
     // largest residual peak (in standard errors) over the channels the model has
     let mut peak: Option<(f64, f64, Channel)> = None;
     for p in pts {
@@ -57,28 +133,5 @@ pub(super) fn cand_unmodeled_mode(twin: &Twin, model: &ModalModel, pts: &[Points
         60,
     )
     .ok()?;
-    let new = r.model;
-    let nm = new.modes[k];
-    let ext = map_models(twin, |pm| {
-        let mut pm = pm.clone();
-        pm.modes.push(nm);
-        for c in &mut pm.channels {
-            let n = new
-                .channel(c.channel)
-                .map_or(ModeNum::default(), |nc| nc.num[k]);
-            c.num.push(n);
-        }
-        pm
-    });
-    let mut d = Map::new();
-    d.insert("freq_hz".into(), json!(nm.freq_hz()));
-    d.insert("damping".into(), json!(nm.zeta));
-    d.insert("axis".into(), json!(ch.output.to_string()));
-    Some(Cand {
-        cause: Cause::UnmodeledMode,
-        chi: chi(&new, pts, 0.0),
-        twin: ext,
-        details: d,
-        per_record: Vec::new(),
-    })
+    Some((r.model, k, ch))
 }
