@@ -322,10 +322,9 @@ fn tryout_diagnosis_names_all_four_cases() {
         if cause != want || !numbers_right {
             wrong.push(format!("{case}: {cause} {det} (want {want} {tdet})"));
         }
-        // the extension must pay off on held-out data where the effect is a sizeable
-        // part of the response (the hardening joint's 2.5 % shift of the 88 Hz mode is
-        // not: the linear twin already fits its held-out hit at 99.6 %)
-        if matches!(want, "mode_change" | "disturbance") && after - before <= 1.0 {
+        // the extension must pay off on held-out data (where the effect acts: a cause at
+        // one mode is scored on the responses band-passed around it)
+        if want != "none" && after - before <= 1.0 {
             wrong.push(format!(
                 "{case}: held-out gain {:.2} points",
                 after - before

@@ -275,6 +275,7 @@ pub fn octave_fits(
                     v.iter().sum::<f64>() / v.len() as f64
                 },
                 noise_limit_pct: None,
+                noise_free_fit_pct: None,
                 band_hz: bands.own(c.channel),
             }
         })
@@ -323,6 +324,7 @@ fn noise_scores(model: &ModalModel, frf: &Frf, bands: &Bands, n: usize) -> Vec<C
                     f64::NAN
                 },
                 noise_limit_pct: None,
+                noise_free_fit_pct: None,
                 band_hz: bands.own(c.channel),
             })
         })
@@ -365,6 +367,7 @@ fn relative_fits(
                     f64::NAN
                 },
                 noise_limit_pct: None,
+                noise_free_fit_pct: None,
                 band_hz: bands.own(c.channel),
             })
         })
@@ -397,7 +400,9 @@ pub fn channel_fits_as(
                 .iter()
                 .map(|&k| model.eval_hz(ci, frf.freqs_hz[k]) * jw(frf.freqs_hz[k]))
                 .collect();
-            let noise_limit_pct = match (&c.coherence, averages) {
+            // the noise's share of the FRF's scatter (variance summed over the lines) and
+            // the scatter itself
+            let noise = match (&c.coherence, averages) {
                 (Some(g), Some(n)) if n > 1 => {
                     let vars: Vec<f64> = h
                         .iter()
@@ -407,14 +412,24 @@ pub fn channel_fits_as(
                     let var = vars.iter().sum::<f64>() * line_noise_scale(&h, &vars);
                     let mean = h.iter().sum::<Complex64>() / h.len().max(1) as f64;
                     let spread: f64 = h.iter().map(|v| (v - mean).norm_sqr()).sum();
-                    (spread > 0.0).then(|| 100.0 * (1.0 - (var / spread).sqrt()))
+                    (spread > 0.0).then_some((var, spread))
                 }
                 _ => None,
             };
+            let noise_limit_pct = noise.map(|(var, spread)| 100.0 * (1.0 - (var / spread).sqrt()));
+            // the model's fit to the noise-free FRF, estimated: the misfit's power less the
+            // noise's (model error and noise are independent), over the scatter less the
+            // noise's; a model within the noise scores 100 %
+            let noise_free_fit_pct = noise.map(|(var, spread)| {
+                let err: f64 = h.iter().zip(&m).map(|(a, b)| (a - b).norm_sqr()).sum();
+                let signal = (spread - var).max(0.05 * spread);
+                100.0 * (1.0 - ((err - var).max(0.0) / signal).sqrt())
+            });
             Some(ChannelFit {
                 channel: c.channel,
                 fit_pct: fit_percent(&h, &m),
                 noise_limit_pct,
+                noise_free_fit_pct,
                 band_hz: bands.own(c.channel),
             })
         })

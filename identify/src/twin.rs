@@ -57,6 +57,12 @@ pub struct ChannelFit {
     /// that carries mostly noise).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub noise_limit_pct: Option<f64>,
+    /// The model's fit to the noise-free FRF, estimated from the misfit and the noise
+    /// (`100 (1 − √(max(0, misfit² − noise²)) / √(scatter² − noise²))`, all summed over
+    /// the band's lines; 100 % when the misfit is all noise): how well the model matches
+    /// what the data measure, which a noisy channel's `fit_pct` cannot show.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub noise_free_fit_pct: Option<f64>,
     /// The band \[Hz\] this channel was judged in, when narrower than the pose band (a
     /// channel whose coherence is trustworthy only in part of it).
     #[serde(default, skip_serializing_if = "Option::is_none")]

@@ -539,6 +539,7 @@ fn twin_with_undefined_fit_saves_and_loads() {
         channel: XX,
         fit_pct: identify::frf::fit_percent(&h, &h),
         noise_limit_pct: None,
+        noise_free_fit_pct: None,
         band_hz: None,
     }];
     let d = tempfile::tempdir().unwrap();

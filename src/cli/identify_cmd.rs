@@ -156,9 +156,15 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
                     .band_hz
                     .map(|b| format!(" in {:.0}-{:.0} Hz", b[0], b[1]))
                     .unwrap_or_default();
-                match f.noise_limit_pct {
-                    // a channel the noise keeps well below 100 %: say what the data allow
-                    Some(l) if l < 97.0 => format!(
+                match (f.noise_limit_pct, f.noise_free_fit_pct) {
+                    // a channel the noise keeps well below 100 %: the model against what
+                    // the data measure, and the raw figure with what its noise allows
+                    (Some(l), Some(nf)) if l < 97.0 => format!(
+                        "{} ≈{:.1} % of its noise-free FRF ({:.2} % of the measured{band}, \
+                         whose noise alone allows {:.1} %)",
+                        f.channel, nf, f.fit_pct, l
+                    ),
+                    (Some(l), None) if l < 97.0 => format!(
                         "{} {:.2} %{band} (its noise allows {:.1} %)",
                         f.channel, f.fit_pct, l
                     ),
