@@ -17,6 +17,8 @@ use crate::twin::{
     now_unix, ChannelFit, HistoryEntry, InterpolationInfo, LooEntry, OrderInfo, PoseModel, Twin,
 };
 use num_complex::Complex64;
+use rand::rngs::StdRng;
+use rand::{Rng, SeedableRng};
 use rayon::prelude::*;
 
 /// Options of [`identify_campaign`].
@@ -769,6 +771,101 @@ pub fn identify_frfs(
             .partial_cmp(&(b.pose[2], b.pose[1], b.pose[0]))
             .unwrap_or(std::cmp::Ordering::Equal)
     });
+    // a tracked mode that departs from a smooth trend over the poses gets one pole for
+    // every pose unless that costs a measured pose its fit; where it does, both twins are
+    // built and the one that fits better where measured and between the poses is kept
+    let guarded = finish_campaign(
+        fits.clone(),
+        &directions,
+        opts,
+        &all_sources,
+        n_sources,
+        Freeze::Guarded,
+    )?;
+    if !guarded.refused_freeze {
+        return Ok(guarded.result);
+    }
+    let all = finish_campaign(
+        fits,
+        &directions,
+        opts,
+        &all_sources,
+        n_sources,
+        Freeze::All,
+    )?;
+    let score = |r: &CampaignResult| {
+        let measured = r.twin.poses.iter().map(|p| mean_fit(&p.fit)).sum::<f64>()
+            / r.twin.poses.len().max(1) as f64;
+        let loo = &r.twin.interpolation.leave_one_out;
+        let between = if loo.is_empty() {
+            measured
+        } else {
+            loo.iter()
+                .map(|e| mean_fit(&e.fit).max(-100.0))
+                .sum::<f64>()
+                / loo.len() as f64
+        };
+        measured + between.max(-100.0)
+    };
+    let (keep, other) = if score(&all.result) > score(&guarded.result) {
+        (all.result, guarded.result)
+    } else {
+        (guarded.result, all.result)
+    };
+    let mut keep = keep;
+    let note = format!(
+        "modes that do not follow a smooth trend over the poses: {} (mean fit where measured \
+         plus leave-one-pose-out mean: {:.1} vs {:.1} for the other choice)",
+        if keep
+            .twin
+            .poses
+            .iter()
+            .any(|p| p.plan.as_ref().is_some_and(|pl| pl
+                .alternatives
+                .iter()
+                .any(|a| a.starts_with("tracked mode"))))
+        {
+            "kept as tracked at each pose"
+        } else {
+            "one pole for every pose"
+        },
+        score(&keep),
+        score(&other)
+    );
+    for p in keep.twin.poses.iter_mut() {
+        if let Some(pl) = p.plan.as_mut() {
+            pl.alternatives.push(note.clone());
+        }
+    }
+    Ok(keep)
+}
+
+/// How [`common_residual_poles`] treats tracked modes off their trend.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Freeze {
+    /// One pole for every pose unless a measured pose's fit drops by more than
+    /// [`RESIDUAL_MAX_FIT_DROP`].
+    Guarded,
+    /// One pole for every pose, always.
+    All,
+}
+
+/// A campaign's twin built from its pose fits, and whether a freeze was refused.
+struct Finished {
+    result: CampaignResult,
+    refused_freeze: bool,
+}
+
+/// Tracking, mode assignment, residual poles and the twin, from the pose fits.
+fn finish_campaign(
+    mut fits: Vec<PoseFit>,
+    directions: &[crate::axis::Axis],
+    opts: &CampaignOptions,
+    all_sources: &[String],
+    n_sources: usize,
+    freeze: Freeze,
+) -> Result<Finished> {
+    let mut refused_freeze = false;
     let mut warnings: Vec<String> = fits
         .iter()
         .flat_map(|f| {
@@ -795,9 +892,15 @@ pub fn identify_frfs(
                     ..f.clone()
                 })
                 .collect();
+            let own: Vec<ModalModel> = sub.iter().map(|f| f.model.clone()).collect();
             warnings.extend(track_modes(&mut sub)?);
+            let notes = assign_by_trends(&mut sub, &own);
+            for f in fits.iter_mut() {
+                f.plan.alternatives.extend(notes.iter().cloned());
+            }
             warnings.extend(resplit_coincident_modes(&mut sub));
-            let notes = common_residual_poles(&mut sub)?;
+            let (notes, refused) = common_residual_poles(&mut sub, freeze)?;
+            refused_freeze |= refused;
             for f in fits.iter_mut() {
                 f.plan.alternatives.extend(notes.iter().cloned());
             }
@@ -810,9 +913,15 @@ pub fn identify_frfs(
             f.order.modes = f.model.modes.len();
         }
     } else if fits.len() > 1 {
+        let own: Vec<ModalModel> = fits.iter().map(|f| f.model.clone()).collect();
         warnings.extend(track_modes(&mut fits)?);
+        let notes = assign_by_trends(&mut fits, &own);
+        for f in fits.iter_mut() {
+            f.plan.alternatives.extend(notes.iter().cloned());
+        }
         warnings.extend(resplit_coincident_modes(&mut fits));
-        let notes = common_residual_poles(&mut fits)?;
+        let (notes, refused) = common_residual_poles(&mut fits, freeze)?;
+        refused_freeze |= refused;
         for f in fits.iter_mut() {
             f.plan.alternatives.extend(notes.iter().cloned());
         }
@@ -864,7 +973,7 @@ pub fn identify_frfs(
     twin.history.push(HistoryEntry {
         unix_time: now_unix(),
         kind: "identify".into(),
-        files: all_sources,
+        files: all_sources.to_vec(),
         summary: format!(
             "a-priori twin from {n_sources} measured FRF file(s) at {} poses",
             twin.poses.len()
@@ -872,10 +981,13 @@ pub fn identify_frfs(
         figures: Default::default(),
         previous_poses: Vec::new(),
     });
-    Ok(CampaignResult {
-        twin,
-        warnings,
-        diagrams,
+    Ok(Finished {
+        result: CampaignResult {
+            twin,
+            warnings,
+            diagrams,
+        },
+        refused_freeze,
     })
 }
 
@@ -967,6 +1079,225 @@ fn irregular_over_poses(fits: &[PoseFit], k: usize) -> f64 {
     (b - a * c).amax()
 }
 
+/// `m` with its modes (and their numerators) in the order `perm` (mode `k` of the
+/// result is mode `perm[k]` of `m`).
+fn reorder_modes(m: &ModalModel, perm: &[usize]) -> ModalModel {
+    let mut out = m.clone();
+    for (k, &l) in perm.iter().enumerate() {
+        out.modes[k] = m.modes[l];
+        for (co, ci) in out.channels.iter_mut().zip(&m.channels) {
+            co.num[k] = ci.num[l];
+        }
+    }
+    out
+}
+
+/// Σ over the modes of the departure of `ln ωn` from its affine trend over the poses
+/// ([`irregular_over_poses`]): how far an assignment of modes to poses is from modes
+/// that each move smoothly with the pose.
+fn total_irregularity(fits: &[PoseFit]) -> f64 {
+    let n = fits.first().map_or(0, |f| f.model.modes.len());
+    (0..n).map(|k| irregular_over_poses(fits, k)).sum()
+}
+
+/// Random starts of [`assign_by_trends`] besides the frequency and the tracking order.
+const TREND_RESTARTS: usize = 12;
+
+/// Largest mode count whose permutations are searched exhaustively per pose.
+const TREND_EXHAUSTIVE_MODES: usize = 7;
+
+/// Tracking from neighbour to neighbour can swap two close modes at some poses (a
+/// 260 Hz and a 280 Hz mode that both shift by 10 % over the workspace): a mode
+/// then jumps between two trends and [`common_residual_poles`] must freeze it. When
+/// most poses' own fits (`own`, before tracking) have the tracked mode count, their
+/// modes (the tracked ones at the other poses) are assigned again, to the modes' affine trends in `ln ωn` over the poses: start from
+/// each pose's modes in frequency order, fit one trend per mode, give each pose the
+/// permutation nearest the trends (frequency, and damping loosely), and repeat; modes
+/// whose trends cross are followed through the crossing. Kept only when the modes then
+/// follow their trends more closely than the tracking's (less total irregularity).
+fn assign_by_trends(fits: &mut [PoseFit], own: &[ModalModel]) -> Vec<String> {
+    let n = fits.len();
+    let m = fits.first().map_or(0, |f| f.model.modes.len());
+    // a pose whose own fit has another count keeps its tracked model (re-ordered)
+    if n < 6 || m < 2 || 2 * own.iter().filter(|o| o.modes.len() == m).count() < n {
+        return Vec::new();
+    }
+    let before = total_irregularity(fits);
+    if before <= 0.5 * RESIDUAL_IRREGULAR {
+        return Vec::new();
+    }
+    let a = nalgebra::DMatrix::from_fn(n, 4, |i, j| if j == 0 { 1.0 } else { fits[i].pose[j - 1] });
+    let svd = a.clone().svd(true, true);
+    let ln_wn = |mm: &ModalModel, k: usize| mm.modes[k].wn.max(1e-300).ln();
+    let ln_zeta = |mm: &ModalModel, k: usize| mm.modes[k].zeta.max(1e-6).ln();
+    // the mode's resonance peak summed over the channels (its modal flexibility)
+    let ln_peak = |mm: &ModalModel, k: usize| {
+        let md = mm.modes[k];
+        let s = Complex64::new(0.0, md.wn);
+        let p: f64 = mm
+            .channels
+            .iter()
+            .map(|c| (Complex64::new(c.num[k].b0, 0.0) + s * c.num[k].b1).norm() / md.den(s).norm())
+            .sum();
+        p.max(1e-300).ln()
+    };
+    // starts: each pose's modes in frequency order, the tracking's order, and the
+    // frequency order with close neighbours (within 15 %) swapped at random poses (modes
+    // that cross: a local optimum of the assignment keeps them swapped otherwise)
+    let sorted: Vec<PoseFit> = fits
+        .iter()
+        .zip(own)
+        .map(|(f, o)| {
+            let o = if o.modes.len() == m { o } else { &f.model };
+            let mut perm: Vec<usize> = (0..m).collect();
+            perm.sort_by(|&a, &b| o.modes[a].wn.total_cmp(&o.modes[b].wn));
+            PoseFit {
+                model: reorder_modes(o, &perm),
+                ..f.clone()
+            }
+        })
+        .collect();
+    let mut starts = vec![sorted.clone(), fits.to_vec()];
+    let mut rng = StdRng::seed_from_u64(0x7e4d);
+    for _ in 0..TREND_RESTARTS {
+        let mut t = sorted.clone();
+        for f in t.iter_mut() {
+            let mut perm: Vec<usize> = (0..m).collect();
+            for k in 0..m - 1 {
+                let (a, b) = (f.model.modes[perm[k]].wn, f.model.modes[perm[k + 1]].wn);
+                if (b / a).ln().abs() < 0.15 && rng.gen_bool(0.3) {
+                    perm.swap(k, k + 1);
+                }
+            }
+            f.model = reorder_modes(&f.model, &perm);
+        }
+        starts.push(t);
+    }
+    let terms: [(&dyn Fn(&ModalModel, usize) -> f64, f64); 3] =
+        [(&ln_wn, 0.02), (&ln_zeta, 0.3), (&ln_peak, 1.0)];
+    // per pose and candidate mode: its three values (fixed; only the order changes)
+    let mut best: Option<(f64, Vec<PoseFit>)> = None;
+    for mut trial in starts {
+        let mut cost_total = f64::INFINITY;
+        for _ in 0..8 {
+            // one trend per mode and quantity (affine in the pose)
+            let mut trends = vec![vec![nalgebra::DVector::zeros(n); m]; terms.len()];
+            let mut total = 0.0;
+            for (q, (vals, scale)) in terms.iter().enumerate() {
+                for k in 0..m {
+                    let b = nalgebra::DVector::from_fn(n, |i, _| vals(&trial[i].model, k));
+                    let Ok(c) = svd.solve(&b, 1e-12) else {
+                        return Vec::new();
+                    };
+                    trends[q][k] = &a * c;
+                    total += ((b - &trends[q][k]).norm() / scale).powi(2);
+                }
+            }
+            cost_total = total;
+            let mut changed = false;
+            for i in 0..n {
+                let cur = trial[i].model.clone();
+                let vals: Vec<Vec<f64>> = terms
+                    .iter()
+                    .map(|(v, _)| (0..m).map(|l| v(&cur, l)).collect())
+                    .collect();
+                let matrix: Vec<Vec<f64>> = (0..m)
+                    .map(|k| {
+                        (0..m)
+                            .map(|l| {
+                                terms
+                                    .iter()
+                                    .enumerate()
+                                    .map(|(q, (_, scale))| {
+                                        ((vals[q][l] - trends[q][k][i]) / scale).powi(2)
+                                    })
+                                    .sum()
+                            })
+                            .collect()
+                    })
+                    .collect();
+                let perm = best_permutation(m, &|k, l| matrix[k][l]);
+                if perm.iter().enumerate().any(|(k, &l)| k != l) {
+                    trial[i].model = reorder_modes(&cur, &perm);
+                    changed = true;
+                }
+            }
+            if !changed {
+                break;
+            }
+        }
+        if best.as_ref().is_none_or(|b| cost_total < b.0) {
+            best = Some((cost_total, trial));
+        }
+    }
+    let Some((_, trial)) = best else {
+        return Vec::new();
+    };
+    let after = total_irregularity(&trial);
+    if after >= before {
+        return Vec::new();
+    }
+    for (f, t) in fits.iter_mut().zip(trial) {
+        f.model = t.model;
+    }
+    vec![format!(
+        "modes assigned across the poses by their trends over the workspace (the poses' own \
+         fits), not by tracking from neighbour to neighbour: largest departures from the \
+         trends summed over the modes {:.1} % instead of {:.1} %",
+        100.0 * after,
+        100.0 * before
+    )]
+}
+
+/// The assignment `perm` (mode `k` ← candidate `perm[k]`) of least total `cost(k, l)`:
+/// exhaustive up to [`TREND_EXHAUSTIVE_MODES`] modes, else greedy on the sorted costs.
+fn best_permutation(m: usize, cost: &dyn Fn(usize, usize) -> f64) -> Vec<usize> {
+    if m <= TREND_EXHAUSTIVE_MODES {
+        let mut best = (f64::INFINITY, (0..m).collect::<Vec<usize>>());
+        let mut perm: Vec<usize> = (0..m).collect();
+        // Heap's algorithm over all permutations
+        let mut c = vec![0usize; m];
+        let eval = |p: &[usize], best: &mut (f64, Vec<usize>)| {
+            let t: f64 = p.iter().enumerate().map(|(k, &l)| cost(k, l)).sum();
+            if t < best.0 {
+                *best = (t, p.to_vec());
+            }
+        };
+        eval(&perm, &mut best);
+        let mut i = 0;
+        while i < m {
+            if c[i] < i {
+                if i % 2 == 0 {
+                    perm.swap(0, i);
+                } else {
+                    perm.swap(c[i], i);
+                }
+                eval(&perm, &mut best);
+                c[i] += 1;
+                i = 0;
+            } else {
+                c[i] = 0;
+                i += 1;
+            }
+        }
+        return best.1;
+    }
+    let mut pairs: Vec<(f64, usize, usize)> = (0..m)
+        .flat_map(|k| (0..m).map(move |l| (k, l)))
+        .map(|(k, l)| (cost(k, l), k, l))
+        .collect();
+    pairs.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut perm = vec![usize::MAX; m];
+    let mut used = vec![false; m];
+    for (_, k, l) in pairs {
+        if perm[k] == usize::MAX && !used[l] {
+            perm[k] = l;
+            used[l] = true;
+        }
+    }
+    perm
+}
+
 /// Pole pairs that stand for what lies outside the band (the mass line of the modes
 /// below it, the stiffness of those above), and tracked modes that are not one physical
 /// mode ([`RESIDUAL_IRREGULAR`]), are fixed only loosely by the data: their
@@ -975,63 +1306,122 @@ fn irregular_over_poses(fits: &[PoseFit], k: usize) -> f64 {
 /// at one pose, at 84 Hz at the next). Each such tracked mode gets one pole for the whole
 /// campaign (the median over the poses), and every pose's numerators are solved anew
 /// for it: the band response is linear in the numerators, so it interpolates smoothly.
-fn common_residual_poles(fits: &mut [PoseFit]) -> Result<Vec<String>> {
+fn common_residual_poles(fits: &mut [PoseFit], freeze: Freeze) -> Result<(Vec<String>, bool)> {
     let mut notes = Vec::new();
     let n_modes = fits.first().map_or(0, |f| f.model.modes.len());
     if fits.len() < 2 || fits.iter().any(|f| f.model.modes.len() != n_modes) {
-        return Ok(notes);
+        return Ok((notes, false));
     }
     let bands: Vec<(f64, f64)> = fits
         .iter()
         .map(|f| band_of(&f.frf, &f.options).pose)
         .collect();
-    let residual: Vec<usize> = (0..n_modes)
+    let outside: Vec<usize> = (0..n_modes)
         .filter(|&k| {
-            let out = fits
-                .iter()
-                .zip(&bands)
-                .filter(|(f, b)| {
-                    let m = f.model.modes[k];
-                    let hz = m.wn / (2.0 * std::f64::consts::PI);
-                    hz < RESIDUAL_BAND_FACTOR * b.0
-                        || hz * RESIDUAL_BAND_FACTOR > b.1
-                        || m.zeta > RESIDUAL_ZETA
-                })
-                .count();
-            out > 0 || irregular_over_poses(fits, k) > RESIDUAL_IRREGULAR
+            fits.iter().zip(&bands).any(|(f, b)| {
+                let m = f.model.modes[k];
+                let hz = m.wn / (2.0 * std::f64::consts::PI);
+                hz < RESIDUAL_BAND_FACTOR * b.0
+                    || hz * RESIDUAL_BAND_FACTOR > b.1
+                    || m.zeta > RESIDUAL_ZETA
+            })
         })
         .collect();
-    if residual.is_empty() {
-        return Ok(notes);
+    let irregular: Vec<usize> = (0..n_modes)
+        .filter(|&k| !outside.contains(&k) && irregular_over_poses(fits, k) > RESIDUAL_IRREGULAR)
+        .collect();
+    if outside.is_empty() && irregular.is_empty() {
+        return Ok((notes, false));
     }
+    // each pose's fit of its FRF (unwindowed model in the windowed domain)
+    let pose_fit = |f: &PoseFit, m: &ModalModel| {
+        let mut w = m.clone();
+        if let Some(s) = f.sigma {
+            w.shift_poles(-s);
+        }
+        let band = band_of(&f.frf, &f.options);
+        mean_fit(&channel_fits_as(&w, &f.frf, &band, 0, None))
+    };
+    let before: Vec<f64> = fits.iter().map(|f| pose_fit(f, &f.model)).collect();
     let median = |mut v: Vec<f64>| {
         v.sort_by(f64::total_cmp);
         v[v.len() / 2]
     };
-    let mut common = Vec::new();
-    for &k in &residual {
-        let wn = median(fits.iter().map(|f| f.model.modes[k].wn.ln()).collect()).exp();
-        let zeta = median(fits.iter().map(|f| f.model.modes[k].zeta).collect()).max(0.02);
-        common.push((k, wn, zeta));
+    // one pole for the modes `set` at every pose, every pose's numerators solved again;
+    // with the largest drop of a pose's fit
+    let freeze_set = |set: &[usize]| -> Result<(Vec<ModalModel>, Vec<(usize, f64, f64)>, f64)> {
+        let common: Vec<(usize, f64, f64)> = set
+            .iter()
+            .map(|&k| {
+                let wn = median(fits.iter().map(|f| f.model.modes[k].wn.ln()).collect()).exp();
+                let zeta = median(fits.iter().map(|f| f.model.modes[k].zeta).collect()).max(0.02);
+                (k, wn, zeta)
+            })
+            .collect();
+        let mut models = Vec::with_capacity(fits.len());
+        let mut drop = 0.0f64;
+        for (f, b) in fits.iter().zip(&before) {
+            let mut m = f.model.clone();
+            for &(k, wn, zeta) in &common {
+                m.modes[k].wn = wn;
+                m.modes[k].zeta = zeta;
+            }
+            if let Some(s) = f.sigma {
+                m.shift_poles(-s);
+            }
+            let w = crate::rational_fit::weights(&f.fitted, &f.options);
+            let mut solved = crate::rational_fit::solve_numerators(&m, &f.fitted, &w, &f.options)?;
+            if let Some(s) = f.sigma {
+                solved.shift_poles(s);
+            }
+            drop = drop.max(b - pose_fit(f, &solved));
+            models.push(solved);
+        }
+        Ok((models, common, drop))
+    };
+    // a frozen pole must not cost a measured pose its fit: physical modes that move with
+    // the pose but were tracked irregularly (crossing modes) stay as tracked then
+    let mut all = outside.clone();
+    all.extend(&irregular);
+    all.sort_unstable();
+    let mut chosen = None;
+    let mut refused = None;
+    for set in [all, outside.clone()] {
+        if set.is_empty() {
+            continue;
+        }
+        let (models, common, drop) = freeze_set(&set)?;
+        if drop <= RESIDUAL_MAX_FIT_DROP || matches!(freeze, Freeze::All) {
+            chosen = Some((models, common));
+            break;
+        }
+        refused.get_or_insert(drop);
     }
-    for f in fits.iter_mut() {
-        let mut m = f.model.clone();
-        for &(k, wn, zeta) in &common {
-            m.modes[k].wn = wn;
-            m.modes[k].zeta = zeta;
-        }
-        if let Some(s) = f.sigma {
-            m.shift_poles(-s);
-        }
-        let w = crate::rational_fit::weights(&f.fitted, &f.options);
-        let mut solved = crate::rational_fit::solve_numerators(&m, &f.fitted, &w, &f.options)?;
-        if let Some(s) = f.sigma {
-            solved.shift_poles(s);
-        }
-        f.model = solved;
+    if let Some(drop) = refused.filter(|_| !irregular.is_empty()) {
+        let hz = |k: usize| {
+            median(fits.iter().map(|f| f.model.modes[k].wn).collect())
+                / (2.0 * std::f64::consts::PI)
+        };
+        notes.push(format!(
+            "tracked mode(s) near {} Hz do not follow a smooth trend over the poses (modes that \
+             cross or swap): kept as tracked at each pose (one pole for every pose would fit a \
+             measured pose {drop:.1} points worse); the twin between poses is less certain there",
+            irregular
+                .iter()
+                .map(|&k| format!("{:.0}", hz(k)))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ));
+    }
+    let refused_irregular = refused.is_some() && !irregular.is_empty();
+    let Some((models, common)) = chosen else {
+        return Ok((notes, refused_irregular));
+    };
+    for (f, m) in fits.iter_mut().zip(models) {
+        f.model = m;
     }
     notes.push(format!(
-        "{} pole pair(s) stand for modes outside the band ({}): one pole for every pose, \
+        "{} pole pair(s) stand for modes outside the band or off a smooth trend over the poses ({}): one pole for every pose, \
          numerators per pose",
         common.len(),
         common
@@ -1044,8 +1434,12 @@ fn common_residual_poles(fits: &mut [PoseFit]) -> Result<Vec<String>> {
             .collect::<Vec<_>>()
             .join(", ")
     ));
-    Ok(notes)
+    Ok((notes, refused_irregular))
 }
+
+/// Largest drop of a measured pose's fit \[points\] that [`common_residual_poles`]
+/// accepts for one pole per residual term.
+const RESIDUAL_MAX_FIT_DROP: f64 = 1.0;
 
 /// Makes every pose model carry the same modes in the same order.
 ///
