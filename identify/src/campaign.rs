@@ -1100,6 +1100,9 @@ fn total_irregularity(fits: &[PoseFit]) -> f64 {
     (0..n).map(|k| irregular_over_poses(fits, k)).sum()
 }
 
+/// A quantity of mode `k` of a model (its log frequency, damping or peak).
+type ModeQuantity = dyn Fn(&ModalModel, usize) -> f64;
+
 /// Random starts of [`assign_by_trends`] besides the frequency and the tracking order.
 const TREND_RESTARTS: usize = 12;
 
@@ -1173,8 +1176,7 @@ fn assign_by_trends(fits: &mut [PoseFit], own: &[ModalModel]) -> Vec<String> {
         }
         starts.push(t);
     }
-    let terms: [(&dyn Fn(&ModalModel, usize) -> f64, f64); 3] =
-        [(&ln_wn, 0.02), (&ln_zeta, 0.3), (&ln_peak, 1.0)];
+    let terms: [(&ModeQuantity, f64); 3] = [(&ln_wn, 0.02), (&ln_zeta, 0.3), (&ln_peak, 1.0)];
     // per pose and candidate mode: its three values (fixed; only the order changes)
     let mut best: Option<(f64, Vec<PoseFit>)> = None;
     for mut trial in starts {
@@ -1349,7 +1351,7 @@ fn common_residual_poles(fits: &mut [PoseFit], freeze: Freeze) -> Result<(Vec<St
     };
     // one pole for the modes `set` at every pose, every pose's numerators solved again;
     // with the largest drop of a pose's fit
-    let freeze_set = |set: &[usize]| -> Result<(Vec<ModalModel>, Vec<(usize, f64, f64)>, f64)> {
+    let freeze_set = |set: &[usize]| -> Result<Frozen> {
         let common: Vec<(usize, f64, f64)> = set
             .iter()
             .map(|&k| {
@@ -1436,6 +1438,10 @@ fn common_residual_poles(fits: &mut [PoseFit], freeze: Freeze) -> Result<(Vec<St
     ));
     Ok((notes, refused_irregular))
 }
+
+/// The pose models with some poles made common, those poles (mode, ωn, ζ), and the
+/// largest drop of a pose's fit.
+type Frozen = (Vec<ModalModel>, Vec<(usize, f64, f64)>, f64);
 
 /// Largest drop of a measured pose's fit \[points\] that [`common_residual_poles`]
 /// accepts for one pole per residual term.

@@ -248,6 +248,10 @@ fn summary_for(cause: Cause, d: &Map<String, Value>, before: f64, after: f64) ->
     }
 }
 
+/// A candidate's action band (lo, hi \[Hz\]) and the held-out fits there of the twin and
+/// of the candidate \[%\].
+type BandFits = ((f64, f64), f64, f64);
+
 /// Smallest gain of the held-out fit in a candidate's action band \[percentage points\]
 /// that names it when the whole response's fit does not move.
 const BAND_GAIN_PCT: f64 = 2.0;
@@ -460,7 +464,7 @@ pub fn diagnose(
     let mut scores = Vec::new();
     let mut best: Option<(usize, f64)> = None;
     // per candidate: its action band and the held-out fits there (twin, candidate)
-    let mut band_fits: Vec<Option<((f64, f64), f64, f64)>> = Vec::new();
+    let mut band_fits: Vec<Option<BandFits>> = Vec::new();
     let delay0 = twin.extensions.delay_s.unwrap_or(0.0);
     for (i, c) in cands.iter().enumerate() {
         let band_c = action_band(c);
