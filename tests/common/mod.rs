@@ -1,6 +1,8 @@
 //! Helpers shared by the command-line integration tests.
 #![allow(dead_code)]
 
+pub mod modal;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
