@@ -483,75 +483,100 @@ pub(super) fn holdout_fit_each<'a>(
     twin_of: impl Fn(usize) -> &'a Twin,
     splits: &[Split],
 ) -> Result<f64> {
-    Ok(holdout_scores_each(twin_of, splits, None)?.0)
+    Ok(HeldOut::simulate(twin_of, splits)?.fit())
 }
 
-/// The held-out fit \[%\] of [`holdout_fit_each`] and, when `band` (lo, hi \[Hz\]) is
-/// given, the same fit of the held-out responses band-passed to it (every held-out
-/// segment's spectrum, lines in the band only; Parseval): how much better the twin
-/// predicts the vibration where an effect acts, which the whole response's fit dilutes
-/// when the effect's mode carries little of the response power.
-pub(super) fn holdout_scores_each<'a>(
-    twin_of: impl Fn(usize) -> &'a Twin,
-    splits: &[Split],
-    band: Option<(f64, f64)>,
-) -> Result<(f64, Option<f64>)> {
-    let mut meas = Vec::new();
-    let mut sim = Vec::new();
-    let (mut err_band, mut pow_band) = (0.0, 0.0);
-    let mut planner = realfft::RealFftPlanner::<f64>::new();
-    for (i, s) in splits.iter().enumerate() {
-        let twin = twin_of(i);
-        let ts = &s.full;
-        let y = simulate_as_measured(twin, ts)?;
-        // every measured response axis counts, also one the twin does not model (then
-        // its prediction is 0: a missing cross channel shows) -- unless a force the twin
-        // knows nothing of acts too (the z force in milling, when only x and y were hit):
-        // then such an axis' response is not the twin's to predict
-        let unknown_force = known_inputs(twin).is_some_and(|known| {
-            Axis::ALL.iter().any(|a| {
-                !known.contains(a) && ts.force(*a).is_some_and(|f| f.iter().any(|v| *v != 0.0))
-            })
-        });
-        for a in Axis::ALL {
-            let Some(m) = ts.response(a) else { continue };
-            if unknown_force && !twin.channels.iter().any(|c| c.output == a) {
-                continue;
-            }
-            let (m, y) = (&m[s.holdout_start..], &y[a.index()][s.holdout_start..]);
-            meas.extend_from_slice(m);
-            sim.extend_from_slice(y);
-            if let Some((lo, hi)) = band {
-                let n = m.len();
-                if n < 4 {
+/// The held-out parts of the records and a twin's simulation of them: each measured
+/// response axis the fit counts, as (measured, simulated, sample interval).
+pub(super) struct HeldOut {
+    segments: Vec<(Vec<f64>, Vec<f64>, f64)>,
+}
+
+impl HeldOut {
+    /// Simulates `twin_of(i)` on split `i` (the whole record, from rest) and keeps the
+    /// held-out part of every response axis that counts: also one the twin does not
+    /// model (then its prediction is 0: a missing cross channel shows) -- unless a force
+    /// the twin knows nothing of acts too (the z force in milling, when only x and y were
+    /// hit): then such an axis' response is not the twin's to predict.
+    pub(super) fn simulate<'a>(
+        twin_of: impl Fn(usize) -> &'a Twin,
+        splits: &[Split],
+    ) -> Result<HeldOut> {
+        let mut segments = Vec::new();
+        for (i, s) in splits.iter().enumerate() {
+            let twin = twin_of(i);
+            let ts = &s.full;
+            let y = simulate_as_measured(twin, ts)?;
+            let unknown_force = known_inputs(twin).is_some_and(|known| {
+                Axis::ALL.iter().any(|a| {
+                    !known.contains(a) && ts.force(*a).is_some_and(|f| f.iter().any(|v| *v != 0.0))
+                })
+            });
+            for a in Axis::ALL {
+                let Some(m) = ts.response(a) else { continue };
+                if unknown_force && !twin.channels.iter().any(|c| c.output == a) {
                     continue;
                 }
-                let fft = planner.plan_fft_forward(n);
-                let spectrum = |v: &[f64]| {
-                    let mut x = v.to_vec();
-                    let mut out = fft.make_output_vec();
-                    fft.process(&mut x, &mut out).ok().map(|_| out)
-                };
-                let (Some(fm), Some(fy)) = (spectrum(m), spectrum(y)) else {
-                    continue;
-                };
-                let df = 1.0 / (n as f64 * ts.dt);
-                for (k, (a, b)) in fm.iter().zip(&fy).enumerate() {
-                    let f = k as f64 * df;
-                    if f >= lo && f <= hi {
-                        err_band += (a - b).norm_sqr();
-                        pow_band += a.norm_sqr();
-                    }
+                segments.push((
+                    m[s.holdout_start..].to_vec(),
+                    y[a.index()][s.holdout_start..].to_vec(),
+                    ts.dt,
+                ));
+            }
+        }
+        if segments.is_empty() {
+            return Err(Error::BadInput("no response column to compare with".into()));
+        }
+        Ok(HeldOut { segments })
+    }
+
+    /// The fit \[%\] of the simulated against the measured held-out responses.
+    pub(super) fn fit(&self) -> f64 {
+        let meas: Vec<f64> = self
+            .segments
+            .iter()
+            .flat_map(|s| s.0.iter().copied())
+            .collect();
+        let sim: Vec<f64> = self
+            .segments
+            .iter()
+            .flat_map(|s| s.1.iter().copied())
+            .collect();
+        fit_percent_real(&meas, &sim)
+    }
+
+    /// The same fit of the responses band-passed to `lo..hi` Hz (each held-out segment's
+    /// spectrum, lines in the band only; Parseval): how much better a twin predicts the
+    /// vibration where an effect acts, which the whole response's fit dilutes when the
+    /// effect's mode carries little of the response power. `None` without power there.
+    pub(super) fn band_fit(&self, lo: f64, hi: f64) -> Option<f64> {
+        let (mut err, mut pow) = (0.0, 0.0);
+        let mut planner = realfft::RealFftPlanner::<f64>::new();
+        for (m, y, dt) in &self.segments {
+            let n = m.len();
+            if n < 4 {
+                continue;
+            }
+            let fft = planner.plan_fft_forward(n);
+            let spectrum = |v: &[f64]| {
+                let mut x = v.to_vec();
+                let mut out = fft.make_output_vec();
+                fft.process(&mut x, &mut out).ok().map(|_| out)
+            };
+            let (Some(fm), Some(fy)) = (spectrum(m), spectrum(y)) else {
+                continue;
+            };
+            let df = 1.0 / (n as f64 * dt);
+            for (k, (a, b)) in fm.iter().zip(&fy).enumerate() {
+                let f = k as f64 * df;
+                if f >= lo && f <= hi {
+                    err += (a - b).norm_sqr();
+                    pow += a.norm_sqr();
                 }
             }
         }
+        (pow > 0.0).then(|| 100.0 * (1.0 - (err / pow).sqrt()))
     }
-    if meas.is_empty() {
-        return Err(Error::BadInput("no response column to compare with".into()));
-    }
-    let in_band =
-        (band.is_some() && pow_band > 0.0).then(|| 100.0 * (1.0 - (err_band / pow_band).sqrt()));
-    Ok((fit_percent_real(&meas, &sim), in_band))
 }
 
 /// The records split by force level (peak force below / above the geometric mean of the

@@ -51,7 +51,7 @@ use crate::interpolate::TwinEvaluator;
 use crate::modal_update::{chi, chi_local};
 use crate::timeseries::TimeSeries;
 use crate::twin::{now_unix, HistoryEntry, Twin};
-use evidence::holdout_scores_each;
+use evidence::HeldOut;
 use num_complex::Complex64;
 use serde::{Deserialize, Serialize};
 use serde_json::{json, Map, Value};
@@ -403,7 +403,9 @@ pub fn diagnose(
     // the twin explains the light-force data within noise but not the hard-force data:
     // no linear change of the twin can be the cause
     let only_hard_misfits = level_misfit == [false, true];
-    let fit_before = holdout_fit(twin, &splits)?;
+    // the twin's simulation of the held-out parts (scored whole and in bands below)
+    let held_out_twin = HeldOut::simulate(|_| twin, &splits)?;
+    let fit_before = held_out_twin.fit();
     let holdout = format!(
         "held out: {} (the last {} of each record, from t = {})",
         if ev.kind == "impact" {
@@ -468,15 +470,15 @@ pub fn diagnose(
     let delay0 = twin.extensions.delay_s.unwrap_or(0.0);
     for (i, c) in cands.iter().enumerate() {
         let band_c = action_band(c);
-        let (fit, fit_band) = if c.per_record.len() == splits.len() {
-            holdout_scores_each(|i| &c.per_record[i], &splits, band_c)
+        let held_out = if c.per_record.len() == splits.len() {
+            HeldOut::simulate(|i| &c.per_record[i], &splits)
         } else {
-            holdout_scores_each(|_| &c.twin, &splits, band_c)
-        }
-        .unwrap_or((f64::NEG_INFINITY, None));
-        let band_before = band_c
-            .and_then(|b| holdout_scores_each(|_| twin, &splits, Some(b)).ok())
-            .and_then(|r| r.1);
+            HeldOut::simulate(|_| &c.twin, &splits)
+        };
+        let (fit, fit_band) = held_out.map_or((f64::NEG_INFINITY, None), |h| {
+            (h.fit(), band_c.and_then(|(lo, hi)| h.band_fit(lo, hi)))
+        });
+        let band_before = band_c.and_then(|(lo, hi)| held_out_twin.band_fit(lo, hi));
         band_fits.push(match (band_c, band_before, fit_band) {
             (Some(b), Some(x), Some(y)) => Some((b, x, y)),
             _ => None,
