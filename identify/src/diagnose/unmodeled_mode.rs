@@ -12,29 +12,7 @@ use std::f64::consts::PI;
 
 pub(super) fn cand_unmodeled_mode(twin: &Twin, model: &ModalModel, pts: &[Points]) -> Option<Cand> {
     let (new, k, ch) = add_mode_at_peak(model, pts)?;
-    let nm = new.modes[k];
-    let ext = map_models(twin, |pm| {
-        let mut pm = pm.clone();
-        pm.modes.push(nm);
-        for c in &mut pm.channels {
-            let n = new
-                .channel(c.channel)
-                .map_or(ModeNum::default(), |nc| nc.num[k]);
-            c.num.push(n);
-        }
-        pm
-    });
-    let mut d = Map::new();
-    d.insert("freq_hz".into(), json!(nm.freq_hz()));
-    d.insert("damping".into(), json!(nm.zeta));
-    d.insert("axis".into(), json!(ch.output.to_string()));
-    Some(Cand {
-        cause: Cause::UnmodeledMode,
-        chi: chi(&new, pts, 0.0),
-        twin: ext,
-        details: d,
-        per_record: Vec::new(),
-    })
+    Some(new_mode_cand(twin, pts, &new, k, ch, |_| {}, Map::new()))
 }
 
 /// A new part that adds a mode usually loads a neighbour too (a heavier tool lowers the
@@ -53,10 +31,32 @@ pub(super) fn cand_unmodeled_mode_after_retune(
         return None;
     }
     let (new, k, ch) = add_mode_at_peak(moved, pts)?;
+    let mut d = Map::new();
+    d.insert(
+        "moved_mode_hz".into(),
+        json!(model.modes[*k_moved].freq_hz()),
+    );
+    d.insert("moved_to_hz".into(), json!(moved.modes[*k_moved].freq_hz()));
+    let retune = |pm: &mut ModalModel| crate::modal_update::apply_change(pm, model, moved, 1.0);
+    Some(new_mode_cand(twin, pts, &new, k, ch, retune, d))
+}
+
+/// The candidate whose twin has mode `k` of `new` added at every pose (after `prepare`
+/// changed each pose model), with the new mode's frequency, damping and axis in its
+/// details beside `extra`.
+fn new_mode_cand(
+    twin: &Twin,
+    pts: &[Points],
+    new: &ModalModel,
+    k: usize,
+    ch: Channel,
+    prepare: impl Fn(&mut ModalModel),
+    extra: Map<String, serde_json::Value>,
+) -> Cand {
     let nm = new.modes[k];
     let ext = map_models(twin, |pm| {
         let mut pm = pm.clone();
-        crate::modal_update::apply_change(&mut pm, model, moved, 1.0);
+        prepare(&mut pm);
         pm.modes.push(nm);
         for c in &mut pm.channels {
             let n = new
@@ -70,18 +70,14 @@ pub(super) fn cand_unmodeled_mode_after_retune(
     d.insert("freq_hz".into(), json!(nm.freq_hz()));
     d.insert("damping".into(), json!(nm.zeta));
     d.insert("axis".into(), json!(ch.output.to_string()));
-    d.insert(
-        "moved_mode_hz".into(),
-        json!(model.modes[*k_moved].freq_hz()),
-    );
-    d.insert("moved_to_hz".into(), json!(moved.modes[*k_moved].freq_hz()));
-    Some(Cand {
+    d.extend(extra);
+    Cand {
         cause: Cause::UnmodeledMode,
-        chi: chi(&new, pts, 0.0),
+        chi: chi(new, pts, 0.0),
         twin: ext,
         details: d,
         per_record: Vec::new(),
-    })
+    }
 }
 
 /// `model` with a mode added at the largest residual peak of `pts` (in standard
