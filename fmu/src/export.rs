@@ -268,19 +268,43 @@ pub fn export_fmu_with(
     out: &Path,
     embedded: Option<&[u8]>,
 ) -> Result<FmuSize, identify::Error> {
-    let so: std::borrow::Cow<[u8]> = match embedded {
-        Some(b) if std::env::var_os("MTWIN_FMU_LIB").is_none() => std::borrow::Cow::Borrowed(b),
-        _ => {
-            let lib = find_library()?;
-            std::borrow::Cow::Owned(std::fs::read(&lib).map_err(|e| identify::Error::io(&lib, e))?)
-        }
-    };
     let xml = model_description(twin)
         .to_xml()
         .map_err(|e| bad(format!("modelDescription.xml: {e}")))?;
     // the slave needs the pose models only: no FRFs, plans or history (module docs of
     // `resources`)
     let json = FmuTwin::from_twin(twin).to_json().map_err(bad)?;
+    package(
+        out,
+        &xml,
+        MODEL_IDENTIFIER,
+        embedded,
+        &[("resources/twin.json", &json)],
+    )
+}
+
+/// The slave library's bytes: `MTWIN_FMU_LIB` when set, else `embedded` when given, else
+/// the one [`find_library`] finds.
+fn library(embedded: Option<&[u8]>) -> Result<std::borrow::Cow<'_, [u8]>, identify::Error> {
+    Ok(match embedded {
+        Some(b) if std::env::var_os("MTWIN_FMU_LIB").is_none() => std::borrow::Cow::Borrowed(b),
+        _ => {
+            let lib = find_library()?;
+            std::borrow::Cow::Owned(std::fs::read(&lib).map_err(|e| identify::Error::io(&lib, e))?)
+        }
+    })
+}
+
+/// Writes an FMU (zip) to `out` atomically: `modelDescription.xml`, the slave library as
+/// `binaries/linux64/<identifier>.so` and the `resources` files.
+pub(crate) fn package(
+    out: &Path,
+    xml: &str,
+    identifier: &str,
+    embedded: Option<&[u8]>,
+    resources: &[(&str, &[u8])],
+) -> Result<FmuSize, identify::Error> {
+    let so = library(embedded)?;
     let mut buf = std::io::Cursor::new(Vec::new());
     {
         let mut zip = zip::ZipWriter::new(&mut buf);
@@ -290,19 +314,22 @@ pub fn export_fmu_with(
         let zerr = |e: zip::result::ZipError| bad(format!("{}: zip: {e}", out.display()));
         zip.start_file("modelDescription.xml", opts).map_err(zerr)?;
         zip.write_all(xml.as_bytes()).map_err(io)?;
-        zip.start_file(format!("binaries/linux64/{MODEL_IDENTIFIER}.so"), opts)
+        zip.start_file(format!("binaries/linux64/{identifier}.so"), opts)
             .map_err(zerr)?;
         zip.write_all(&so).map_err(io)?;
-        zip.start_file("resources/twin.json", opts).map_err(zerr)?;
-        zip.write_all(&json).map_err(io)?;
+        for (name, bytes) in resources {
+            zip.start_file(*name, opts).map_err(zerr)?;
+            zip.write_all(bytes).map_err(io)?;
+        }
         zip.finish().map_err(zerr)?;
     }
     identify::atomic::write_atomic(out, buf.get_ref())?;
-    let (xml_n, so_n, json_n) = (xml.len() as u64, so.len() as u64, json.len() as u64);
+    let res: u64 = resources.iter().map(|(_, b)| b.len() as u64).sum();
+    let (xml_n, so_n) = (xml.len() as u64, so.len() as u64);
     Ok(FmuSize {
         fmu: buf.get_ref().len() as u64,
-        unpacked: xml_n + so_n + json_n,
-        resources: json_n,
+        unpacked: xml_n + so_n + res,
+        resources: res,
         library: so_n,
         model_description: xml_n,
     })

@@ -8,8 +8,8 @@
 //! the given lengths (NULL with length 0 is fine), strings NUL-terminated.
 
 use crate::ffi::*;
-use crate::resources::FmuTwin;
-use crate::slave::{Slave, Snapshot};
+use crate::model::Model;
+use crate::slave::Snapshot;
 use std::ffi::{c_char, CStr, CString};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::PathBuf;
@@ -20,7 +20,7 @@ struct Instance {
     logger: Fmi2CallbackLogger,
     env: Fmi2ComponentEnvironment,
     debug: bool,
-    slave: Slave,
+    slave: Model,
 }
 
 fn log_with(
@@ -192,28 +192,14 @@ fn instantiate(
     ty: Fmi2Type,
     guid: Option<String>,
     loc: Option<String>,
-) -> Result<Slave, String> {
+) -> Result<Model, String> {
     if ty != 1 {
         return Err(
             "this FMU supports Co-Simulation only (fmuType must be fmi2CoSimulation)".into(),
         );
     }
     let loc = loc.ok_or("fmuResourceLocation is NULL")?;
-    let dir = resource_dir(&loc)?;
-    let path = dir.join("twin.json");
-    let twin = FmuTwin::load(&path)
-        .map_err(|e| format!("instance '{name}': cannot read the twin: {e}"))?;
-    let want = twin.guid.clone();
-    match guid {
-        Some(g) if g == want => {}
-        Some(g) => {
-            return Err(format!(
-                "GUID mismatch: the importer passed {g}, the FMU's twin has {want} (modelDescription.xml and resources differ)"
-            ))
-        }
-        None => return Err("fmuGUID is NULL".into()),
-    }
-    Slave::from_lean(&twin)
+    Model::load(&resource_dir(&loc)?, name, guid)
 }
 
 /// `fmi2GetTypesPlatform`.
@@ -519,7 +505,7 @@ pub unsafe extern "C" fn fmi2GetFMUstate(c: Fmi2Component, state: *mut Fmi2FmuSt
         if state.is_null() {
             return Err("FMUstate pointer is NULL".into());
         }
-        let snap = i.slave.snapshot();
+        let snap = i.slave.snapshot()?;
         // SAFETY: `state` is a valid pointer to an fmi2FMUstate slot (checked non-null).
         let slot = unsafe { &mut *state };
         if slot.is_null() {

@@ -9,6 +9,11 @@
 //!   interpolated at the current axis positions (the same state-space core as
 //!   `mtwin simulate`).
 //!
+//! The same library is also the milling process's FMU ([`process`]: the regenerative
+//! force model with its delay line, inputs `dx`, `dy`, outputs `Fx`, `Fy`); the resource
+//! an FMU carries decides which model an instance evaluates ([`model`]). [`ssp`] packages
+//! both FMUs with a `SystemStructure.ssd` that wires them (SSP 1.0).
+//!
 //! [`export::export_fmu`] packages a twin as an `.fmu` (zip with `modelDescription.xml`,
 //! `binaries/linux64/mtwin_tcp.so`, `resources/twin.json`); the resource is the lean
 //! twin of [`resources`] (pose models, no FRFs or history). No global state: instances
@@ -18,7 +23,10 @@ pub mod export;
 #[allow(missing_docs)]
 mod exports;
 pub mod ffi;
+pub mod model;
+pub mod process;
 pub mod resources;
 pub mod slave;
+pub mod ssp;
 
 pub use exports::resource_dir;

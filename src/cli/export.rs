@@ -43,11 +43,19 @@ pub fn human_bytes(n: u64) -> String {
     }
 }
 
-/// One line on the sizes of an exported FMU.
+/// One line on the sizes of an exported twin FMU.
 pub fn size_line(s: &FmuSize) -> String {
     format!(
-        "  size {} (unpacked {}: slave library {}, resources {}, modelDescription.xml {}); \
-         the resources hold the pose models only (no FRFs, plans or history)",
+        "  size {}; the resources hold the pose models only (no FRFs, plans or history)",
+        sizes(s)
+    )
+}
+
+/// The sizes of an exported FMU: `1.2 MB (unpacked …: slave library …, resources …,
+/// modelDescription.xml …)`.
+pub fn sizes(s: &FmuSize) -> String {
+    format!(
+        "{} (unpacked {}: slave library {}, resources {}, modelDescription.xml {})",
         human_bytes(s.fmu),
         human_bytes(s.unpacked),
         human_bytes(s.library),

@@ -26,27 +26,8 @@ pub struct Args {
     /// `<OUT without .csv>.sd.csv` (rpm, ap_lim_sd_m, chatter_hz_sd).
     #[arg(long)]
     pub out: PathBuf,
-    /// Number of teeth.
-    #[arg(long, default_value_t = 2)]
-    pub teeth: usize,
-    /// Tool diameter in m (used with a helix).
-    #[arg(long, default_value_t = 0.016)]
-    pub diameter: f64,
-    /// Helix angle in degrees.
-    #[arg(long, default_value_t = 0.0)]
-    pub helix: f64,
-    /// Radial immersion ae/D in (0, 1] (1 = slotting).
-    #[arg(long, default_value_t = 1.0)]
-    pub immersion: f64,
-    /// Up (conventional) milling instead of down (climb) milling.
-    #[arg(long)]
-    pub up: bool,
-    /// Tangential cutting coefficient Kt in N/m².
-    #[arg(long, default_value_t = 6e8)]
-    pub kt: f64,
-    /// Radial to tangential force ratio Kr.
-    #[arg(long, default_value_t = 0.3)]
-    pub kr: f64,
+    #[command(flatten)]
+    pub cut: super::cosim::CutArgs,
     /// Lowest spindle speed in rpm.
     #[arg(long, default_value_t = 2000.0)]
     pub rpm_min: f64,
@@ -119,15 +100,15 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
         }
     }
     let tool = Tool {
-        teeth: a.teeth,
-        diameter_m: a.diameter,
-        helix_deg: a.helix,
+        teeth: a.cut.teeth,
+        diameter_m: a.cut.diameter,
+        helix_deg: a.cut.helix,
     };
     let cut = Cut {
-        radial_immersion: a.immersion,
-        down_milling: !a.up,
-        kt: a.kt,
-        kr: a.kr,
+        radial_immersion: a.cut.immersion,
+        down_milling: !a.cut.up,
+        kt: a.cut.kt,
+        kr: a.cut.kr,
     };
     let rpm = speeds(a.rpm_min, a.rpm_max, a.speeds);
     let t0 = std::time::Instant::now();
@@ -163,10 +144,10 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
         a.at[0],
         a.at[1],
         a.at[2],
-        a.teeth,
-        a.immersion,
-        a.kt,
-        a.kr,
+        a.cut.teeth,
+        a.cut.immersion,
+        a.cut.kt,
+        a.cut.kr,
         min_zoa * 1e3,
         zoa.len(),
         t_zoa.as_secs_f64() * 1e3,

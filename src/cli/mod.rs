@@ -1,5 +1,6 @@
 //! Argument definitions and dispatch.
 
+mod cosim;
 mod demo;
 mod diagnose;
 mod eval;
@@ -83,6 +84,16 @@ pub enum Cmd {
     ///
     /// Example: mtwin lobes --twin twin.json --at 0.3,0.2,0.1 --teeth 3 --immersion 0.5 --out lobes.csv --plot lobes.svg
     Lobes(lobes::Args),
+    /// The regenerative milling process as its own FMI 2.0 co-simulation FMU (inputs dx,
+    /// dy from the twin FMU; outputs Fx, Fy for it; the delay line inside).
+    ///
+    /// Example: mtwin process-fmu --teeth 3 --rpm 8000 --ap 0.002 --out cut.fmu
+    ProcessFmu(cosim::FmuArgs),
+    /// An SSP package (System Structure and Parameterization 1.0) wiring the twin FMU
+    /// to the process FMU at a pose: SystemStructure.ssd with both FMUs inside.
+    ///
+    /// Example: mtwin ssp --twin twin.json --at 0.3,0.3,0.2 --rpm 7560 --ap 0.001 --out milling.ssp
+    Ssp(cosim::SspArgs),
 }
 
 /// Runs one parsed command line.
@@ -114,6 +125,8 @@ pub fn run(cli: Cli) -> Result<()> {
         }
         Cmd::Export(a) => export::run(a, &out),
         Cmd::Lobes(a) => lobes::run(a, &out),
+        Cmd::ProcessFmu(a) => cosim::run_fmu(a, &out),
+        Cmd::Ssp(a) => cosim::run_ssp(a, &out),
     }
 }
 

@@ -4,6 +4,7 @@ import io
 import os
 import subprocess
 import pathlib
+import sys
 
 import numpy as np
 import pytest
@@ -12,6 +13,8 @@ ROOT = pathlib.Path(__file__).resolve().parents[2]
 TARGET = pathlib.Path(os.environ.get("CARGO_TARGET_DIR", ROOT / "target"))
 MTWIN = TARGET / "release" / "mtwin"
 FIXTURE = TARGET / "release" / "examples" / "fmu_fixture"
+# the FMI/SSP master of examples/python (ssp_master.py) is what the SSP test drives
+sys.path.insert(0, str(ROOT / "examples" / "python"))
 
 
 def run(*args):

@@ -16,11 +16,11 @@ RPM = 7560.0
 SPT = 200
 
 
-def sd_limit(twin):
+def sd_limit(twin, rpm=RPM):
     r = subprocess.run(
         [str(MTWIN), "--json", "lobes", "--twin", str(twin), "--at", ",".join(map(str, POSE)),
          "--out", str(twin.parent / "lobes.csv"), "--teeth", "2", "--immersion", "1",
-         "--kt", "6e8", "--kr", "0.3", "--rpm-min", str(RPM), "--rpm-max", str(RPM * 1.001),
+         "--kt", "6e8", "--kr", "0.3", "--rpm-min", str(rpm), "--rpm-max", str(rpm * 1.001),
          "--speeds", "1", "--sd-speeds", "1", "--sd-steps", "80"],
         capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
