@@ -7,7 +7,11 @@
 //! quantities, min/max/start and dependencies. What FMI 3.0 changes:
 //!
 //! * `fmiVersion="3.0"`, `instantiationToken` instead of `guid`;
-//! * `<Float64>` elements instead of `<ScalarVariable><Real/></ScalarVariable>`;
+//! * `<Float64>` elements instead of `<ScalarVariable><Real/></ScalarVariable>`; their
+//!   quantity and unit through a `declaredType` (`<TypeDefinitions><Float64Type
+//!   name="Force" quantity="Force" unit="N"/>`, units in `UnitDefinitions`), as the
+//!   Modelica Reference FMUs do: strict importers (rust-fmi 0.8) refuse `quantity`/`unit`
+//!   on the variable itself, though the schema allows them;
 //! * the independent variable `time` (unit `s`) is declared, with the value reference
 //!   after the last FMI 2.0 one (the others keep theirs);
 //! * `<ModelStructure>` lists `<Output>` and `<InitialUnknown>` by value reference, and
@@ -85,6 +89,13 @@ pub struct ModelDescription {
         default
     )]
     pub unit_definitions: Option<UnitDefinitions>,
+    /// `<TypeDefinitions>`.
+    #[serde(
+        rename = "TypeDefinitions",
+        skip_serializing_if = "Option::is_none",
+        default
+    )]
+    pub type_definitions: Option<TypeDefinitions>,
     /// `<LogCategories>`.
     #[serde(
         rename = "LogCategories",
@@ -150,6 +161,28 @@ pub struct CoSimulation {
     pub can_handle_variable_communication_step_size: Option<bool>,
 }
 
+/// `<TypeDefinitions>` (Float64 types only).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+pub struct TypeDefinitions {
+    /// The types.
+    #[serde(rename = "Float64Type", default)]
+    pub types: Vec<Float64Type>,
+}
+
+/// `<Float64Type name= quantity= unit=>`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Float64Type {
+    /// Type name, referred to by a variable's `declaredType`.
+    #[serde(rename = "@name")]
+    pub name: String,
+    /// Physical quantity.
+    #[serde(rename = "@quantity", skip_serializing_if = "Option::is_none", default)]
+    pub quantity: Option<String>,
+    /// Unit name (defined in `UnitDefinitions`).
+    #[serde(rename = "@unit", skip_serializing_if = "Option::is_none", default)]
+    pub unit: Option<String>,
+}
+
 /// `<ModelVariables>` (Float64 variables only).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
 pub struct ModelVariables {
@@ -191,10 +224,17 @@ pub struct Float64 {
     /// exact, approx, calculated.
     #[serde(rename = "@initial", skip_serializing_if = "Option::is_none", default)]
     pub initial: Option<String>,
-    /// Physical quantity, e.g. `Force`.
+    /// The `<Float64Type>` giving quantity and unit.
+    #[serde(
+        rename = "@declaredType",
+        skip_serializing_if = "Option::is_none",
+        default
+    )]
+    pub declared_type: Option<String>,
+    /// Physical quantity, e.g. `Force` (written through `declaredType` here).
     #[serde(rename = "@quantity", skip_serializing_if = "Option::is_none", default)]
     pub quantity: Option<String>,
-    /// Unit name.
+    /// Unit name (written through `declaredType` here).
     #[serde(rename = "@unit", skip_serializing_if = "Option::is_none", default)]
     pub unit: Option<String>,
     /// Smallest value.
@@ -234,6 +274,33 @@ pub struct Unknown {
     pub dependencies: Option<String>,
 }
 
+impl TypeDefinitions {
+    /// The name of the type with `quantity` and `unit`, added when new (named after the
+    /// quantity, else the unit); `None` when both are absent.
+    fn declare(&mut self, quantity: &Option<String>, unit: &Option<String>) -> Option<String> {
+        if let Some(t) = self
+            .types
+            .iter()
+            .find(|t| &t.quantity == quantity && &t.unit == unit)
+        {
+            return Some(t.name.clone());
+        }
+        let base = quantity.clone().or_else(|| unit.clone())?;
+        let mut name = base.clone();
+        let mut k = 1;
+        while self.types.iter().any(|t| t.name == name) {
+            k += 1;
+            name = format!("{base}{k}");
+        }
+        self.types.push(Float64Type {
+            name: name.clone(),
+            quantity: quantity.clone(),
+            unit: unit.clone(),
+        });
+        Some(name)
+    }
+}
+
 /// Name of the independent variable FMI 3.0 descriptions declare.
 pub const TIME: &str = "time";
 
@@ -242,6 +309,7 @@ impl ModelDescription {
     /// the same variables, with the independent variable [`TIME`] added after them.
     pub fn from_fmi2(md: &Fmi2) -> Self {
         let vars = &md.model_variables.variables;
+        let mut types = TypeDefinitions::default();
         let mut variables: Vec<Float64> = vars
             .iter()
             .map(|v| Float64 {
@@ -251,8 +319,9 @@ impl ModelDescription {
                 causality: v.causality.clone(),
                 variability: v.variability.clone(),
                 initial: v.initial.clone(),
-                quantity: v.real.quantity.clone(),
-                unit: v.real.unit.clone(),
+                declared_type: types.declare(&v.real.quantity, &v.real.unit),
+                quantity: None,
+                unit: None,
                 min: v.real.min,
                 max: v.real.max,
                 start: v.real.start,
@@ -272,8 +341,9 @@ impl ModelDescription {
                 causality: Some("independent".into()),
                 variability: Some("continuous".into()),
                 initial: None,
-                quantity: Some("Time".into()),
-                unit: Some("s".into()),
+                declared_type: types.declare(&Some("Time".into()), &Some("s".into())),
+                quantity: None,
+                unit: None,
                 min: None,
                 max: None,
                 start: None,
@@ -334,6 +404,7 @@ impl ModelDescription {
                     .can_handle_variable_communication_step_size,
             },
             unit_definitions: Some(units),
+            type_definitions: (!types.types.is_empty()).then_some(types),
             log_categories: md.log_categories.clone(),
             default_experiment: md.default_experiment.clone(),
             model_variables: ModelVariables { variables },
@@ -342,6 +413,16 @@ impl ModelDescription {
                 initial_unknowns: convert(&md.model_structure.initial_unknowns.unknowns),
             },
         }
+    }
+
+    /// The `<Float64Type>` a variable declares (its quantity and unit).
+    pub fn declared_type(&self, v: &Float64) -> Option<&Float64Type> {
+        let name = v.declared_type.as_deref()?;
+        self.type_definitions
+            .as_ref()?
+            .types
+            .iter()
+            .find(|t| t.name == name)
     }
 
     /// The value reference of the variable named `name`.

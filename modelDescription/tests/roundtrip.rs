@@ -65,6 +65,18 @@ fn checked_in_fmi3_file_round_trips_and_matches_the_fmi2_file() {
         .collect();
     assert_eq!(names, ["time", "Fx", "Fy", "x", "y", "z", "dx", "dy"]);
     assert_eq!(md.value_reference("time"), Some(7));
+    let units: Vec<(&str, Option<&str>)> = md
+        .model_variables
+        .variables
+        .iter()
+        .map(|v| {
+            let t = md.declared_type(v).expect("declaredType");
+            (v.name.as_str(), t.unit.as_deref())
+        })
+        .collect();
+    assert_eq!(units[0], ("time", Some("s")));
+    assert_eq!(units[1], ("Fx", Some("N")));
+    assert_eq!(units[7], ("dy", Some("m")));
     let outs: Vec<(u32, Option<&str>)> = md
         .model_structure
         .outputs

@@ -88,11 +88,16 @@ def test_fmu3_has_the_fmi2_variables_and_the_x86_64_linux_binary(built):
     v3 = {v.name: v for v in md3.modelVariables}
     assert list(v3) == ["time"] + list(v2)
     assert v3["time"].causality == "independent" and v3["time"].valueReference == len(v2)
+    units3 = {u.name for u in md3.unitDefinitions}
     for name, a in v2.items():
         b = v3[name]
         assert b.type == "Float64", name
-        for attr in ("valueReference", "causality", "variability", "description", "unit", "quantity", "min", "max", "start"):
+        for attr in ("valueReference", "causality", "variability", "description", "min", "max", "start"):
             assert str(getattr(a, attr)) == str(getattr(b, attr)), (name, attr, getattr(a, attr), getattr(b, attr))
+        # quantity and unit through the declared type (units in UnitDefinitions)
+        t = b.declaredType
+        assert (t.quantity, t.unit) == (a.quantity, a.unit), (name, t.quantity, t.unit)
+        assert t.unit in units3, (name, t.unit)
     deps2 = {u.variable.name: sorted(d.name for d in u.dependencies) for u in md2.outputs}
     deps3 = {u.variable.name: sorted(d.name for d in u.dependencies) for u in md3.outputs}
     assert deps2 == deps3
