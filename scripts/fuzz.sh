@@ -6,8 +6,9 @@
 #       identify/tests/fuzz_readers.rs (arbitrary bytes + mutated valid files), rerun
 #       with fresh random seeds and PROPTEST_CASES doubling from round to round
 #   fmu:c_api
-#       fmu/tests/ffi.rs c_api_survives_misuse_and_random_call_sequences with a fresh
-#       MTWIN_FUZZ_SEED per round and MTWIN_FUZZ_CALLS doubling
+#       fmu/tests/ffi.rs c_api_survives_misuse_and_random_call_sequences and its FMI 3.0
+#       twin fmi3_c_api_survives_... with a fresh MTWIN_FUZZ_SEED per round and
+#       MTWIN_FUZZ_CALLS doubling
 #
 # Appends one line per target to fuzz/LOG.md (date, target, seconds, inputs tried,
 # failures). The output of a failing round is kept in fuzz/failures/; proptest also

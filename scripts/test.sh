@@ -3,6 +3,7 @@
 # FMU in real importers (fmpy, libcosimpy) from a pinned Python venv this script sets up.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+./scripts/setup-rust.sh
 echo "== cargo fmt --check"
 cargo fmt --all -- --check
 echo "== cargo clippy"

@@ -1,4 +1,4 @@
-//! Packaging a twin as an FMU.
+//! Packaging a twin as an FMU (FMI 2.0 or 3.0, [`FmiVersion`]).
 //!
 //! The slave library is this crate's `cdylib` (`libmtwin_fmu.so`), found in this order:
 //! the `MTWIN_FMU_LIB` environment variable; next to the running executable (and its
@@ -20,6 +20,38 @@ use std::path::{Path, PathBuf};
 
 /// The model identifier (the shared library's name inside the FMU).
 pub const MODEL_IDENTIFIER: &str = "mtwin_tcp";
+
+/// The FMI version of an exported FMU. Both carry the same slave library (it exports the
+/// `fmi2*` and the `fmi3*` functions), the same resources and the same variables.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum FmiVersion {
+    /// FMI 2.0 Co-Simulation: `binaries/linux64/`.
+    #[default]
+    V2,
+    /// FMI 3.0 Co-Simulation: `binaries/x86_64-linux/`, `Float64` variables, the
+    /// independent variable `time` added (see [`model_description::fmi3`]).
+    V3,
+}
+
+impl FmiVersion {
+    /// The slave library `<identifier>.so` inside the FMU, in the folder of the platform
+    /// of this build.
+    pub fn binary_path(self, identifier: &str) -> String {
+        let platform = match self {
+            FmiVersion::V2 => "linux64",
+            FmiVersion::V3 => "x86_64-linux",
+        };
+        format!("binaries/{platform}/{identifier}.so")
+    }
+
+    /// "2.0" or "3.0".
+    pub fn number(self) -> &'static str {
+        match self {
+            FmiVersion::V2 => "2.0",
+            FmiVersion::V3 => "3.0",
+        }
+    }
+}
 
 fn bad(msg: String) -> identify::Error {
     identify::Error::BadInput(msg)
@@ -260,24 +292,43 @@ pub fn export_fmu(twin: &Twin, out: &Path) -> Result<FmuSize, identify::Error> {
     export_fmu_with(twin, out, None)
 }
 
-/// Writes the FMU of `twin` to `out` (atomically). The slave library is `MTWIN_FMU_LIB`
-/// when set, else `embedded` (the bytes of `libmtwin_fmu.so` built into the caller) when
-/// given, else the one [`find_library`] finds.
+/// Writes the FMI 2.0 FMU of `twin` to `out` (atomically). The slave library is
+/// `MTWIN_FMU_LIB` when set, else `embedded` (the bytes of `libmtwin_fmu.so` built into
+/// the caller) when given, else the one [`find_library`] finds.
 pub fn export_fmu_with(
     twin: &Twin,
     out: &Path,
     embedded: Option<&[u8]>,
 ) -> Result<FmuSize, identify::Error> {
-    let xml = model_description(twin)
-        .to_xml()
-        .map_err(|e| bad(format!("modelDescription.xml: {e}")))?;
+    export_fmu_as(twin, out, embedded, FmiVersion::V2)
+}
+
+/// The `modelDescription.xml` text of `twin`'s FMU in FMI `version`, generated now.
+pub fn model_description_xml(twin: &Twin, version: FmiVersion) -> Result<String, String> {
+    let md = model_description(twin);
+    match version {
+        FmiVersion::V2 => md.to_xml(),
+        FmiVersion::V3 => model_description::fmi3::ModelDescription::from_fmi2(&md).to_xml(),
+    }
+    .map_err(|e| format!("modelDescription.xml: {e}"))
+}
+
+/// Writes the FMU of `twin` in FMI `version` to `out` (atomically); the slave library as
+/// for [`export_fmu_with`].
+pub fn export_fmu_as(
+    twin: &Twin,
+    out: &Path,
+    embedded: Option<&[u8]>,
+    version: FmiVersion,
+) -> Result<FmuSize, identify::Error> {
+    let xml = model_description_xml(twin, version).map_err(bad)?;
     // the slave needs the pose models only: no FRFs, plans or history (module docs of
     // `resources`)
     let json = FmuTwin::from_twin(twin).to_json().map_err(bad)?;
     package(
         out,
         &xml,
-        MODEL_IDENTIFIER,
+        &version.binary_path(MODEL_IDENTIFIER),
         embedded,
         &[("resources/twin.json", &json)],
     )
@@ -295,12 +346,12 @@ fn library(embedded: Option<&[u8]>) -> Result<std::borrow::Cow<'_, [u8]>, identi
     })
 }
 
-/// Writes an FMU (zip) to `out` atomically: `modelDescription.xml`, the slave library as
-/// `binaries/linux64/<identifier>.so` and the `resources` files.
+/// Writes an FMU (zip) to `out` atomically: `modelDescription.xml`, the slave library at
+/// `binary` (e.g. `binaries/linux64/<identifier>.so`) and the `resources` files.
 pub(crate) fn package(
     out: &Path,
     xml: &str,
-    identifier: &str,
+    binary: &str,
     embedded: Option<&[u8]>,
     resources: &[(&str, &[u8])],
 ) -> Result<FmuSize, identify::Error> {
@@ -314,8 +365,7 @@ pub(crate) fn package(
         let zerr = |e: zip::result::ZipError| bad(format!("{}: zip: {e}", out.display()));
         zip.start_file("modelDescription.xml", opts).map_err(zerr)?;
         zip.write_all(xml.as_bytes()).map_err(io)?;
-        zip.start_file(format!("binaries/linux64/{identifier}.so"), opts)
-            .map_err(zerr)?;
+        zip.start_file(binary, opts).map_err(zerr)?;
         zip.write_all(&so).map_err(io)?;
         for (name, bytes) in resources {
             zip.start_file(*name, opts).map_err(zerr)?;

@@ -1,6 +1,6 @@
 //! The 34 `extern "C"` functions of FMI 2.0 Co-Simulation. Every one goes through
-//! [`call`] (null check, `catch_unwind`, error → `fmi2Error` with a logged message,
-//! panic → `fmi2Fatal`); nothing else happens here.
+//! [`call`] (null check, refusal after a panic, `catch_unwind`, error → `fmi2Error` with a
+//! logged message, panic → `fmi2Fatal`); nothing else happens here.
 //!
 //! # Safety (all functions)
 //! The importer must pass the pointers the FMI 2.0 standard prescribes: `c` a component
@@ -9,183 +9,13 @@
 
 use crate::ffi::*;
 use crate::model::Model;
-use crate::slave::Snapshot;
-use std::ffi::{c_char, CStr, CString};
-use std::panic::{catch_unwind, AssertUnwindSafe};
-use std::path::PathBuf;
-
-/// One instance as handed to the importer.
-struct Instance {
-    name: CString,
-    logger: Fmi2CallbackLogger,
-    env: Fmi2ComponentEnvironment,
-    debug: bool,
-    slave: Model,
-}
-
-fn log_with(
-    logger: Fmi2CallbackLogger,
-    env: Fmi2ComponentEnvironment,
-    name: &CStr,
-    status: Fmi2Status,
-    category: &str,
-    msg: &str,
-) {
-    if let Some(f) = logger {
-        let cat = CString::new(category).unwrap_or_default();
-        let m = CString::new(msg.replace('\0', " ")).unwrap_or_default();
-        // SAFETY: the logger is the importer's callback; every string is NUL-terminated
-        // and outlives the call; "%s" consumes exactly one string argument.
-        unsafe {
-            f(
-                env,
-                name.as_ptr(),
-                status,
-                cat.as_ptr(),
-                c"%s".as_ptr(),
-                m.as_ptr(),
-            )
-        };
-    }
-}
-
-impl Instance {
-    fn log(&self, status: Fmi2Status, msg: &str) {
-        let cat = match status {
-            Fmi2Status::Ok => "logAll",
-            Fmi2Status::Warning => "logStatusWarning",
-            _ => "logStatusError",
-        };
-        if status != Fmi2Status::Ok || self.debug {
-            log_with(self.logger, self.env, &self.name, status, cat, msg);
-        }
-    }
-}
-
-impl Instance {
-    /// Logs the slave's pending warnings (a pose leaving the measured box): `fmi2Warning`
-    /// when there were any, else `fmi2OK`.
-    fn warn(&mut self) -> Fmi2Status {
-        let w = self.slave.take_warnings();
-        for m in &w {
-            self.log(Fmi2Status::Warning, m);
-        }
-        if w.is_empty() {
-            Fmi2Status::Ok
-        } else {
-            Fmi2Status::Warning
-        }
-    }
-}
-
-/// The trampoline: every exported function's body runs inside it.
-fn call(
-    c: Fmi2Component,
-    what: &str,
-    f: impl FnOnce(&mut Instance) -> Result<Fmi2Status, String>,
-) -> Fmi2Status {
-    if c.is_null() {
-        return Fmi2Status::Error;
-    }
-    // SAFETY: non-null `c` was created by `fmi2Instantiate` (Box::into_raw) and is only
-    // freed by `fmi2FreeInstance`; the importer does not call one instance concurrently.
-    let inst = unsafe { &mut *(c as *mut Instance) };
-    match catch_unwind(AssertUnwindSafe(|| f(inst))) {
-        Ok(Ok(s)) => s,
-        Ok(Err(msg)) => {
-            inst.log(Fmi2Status::Error, &format!("{what}: {msg}"));
-            Fmi2Status::Error
-        }
-        Err(_) => {
-            inst.log(
-                Fmi2Status::Fatal,
-                &format!("{what}: internal error (panic)"),
-            );
-            Fmi2Status::Fatal
-        }
-    }
-}
-
-/// `(ptr, n)` → slice; NULL with `n == 0` → empty; NULL with `n > 0` → error.
-///
-/// # Safety
-/// A non-null `p` must be valid for `n` reads.
-unsafe fn slice<'a, T>(p: *const T, n: usize, what: &str) -> Result<&'a [T], String> {
-    if n == 0 {
-        return Ok(&[]);
-    }
-    if p.is_null() {
-        return Err(format!("{what} is NULL but {n} values were announced"));
-    }
-    // SAFETY: non-null and valid for n elements per the caller's contract.
-    Ok(unsafe { std::slice::from_raw_parts(p, n) })
-}
-
-/// Mutable version of [`slice`].
-///
-/// # Safety
-/// A non-null `p` must be valid for `n` writes.
-unsafe fn slice_mut<'a, T>(p: *mut T, n: usize, what: &str) -> Result<&'a mut [T], String> {
-    if n == 0 {
-        return Ok(&mut []);
-    }
-    if p.is_null() {
-        return Err(format!("{what} is NULL but {n} values were announced"));
-    }
-    // SAFETY: non-null and valid for n elements per the caller's contract.
-    Ok(unsafe { std::slice::from_raw_parts_mut(p, n) })
-}
-
-/// # Safety
-/// `s` is NULL or NUL-terminated.
-unsafe fn string(s: Fmi2String) -> Option<String> {
-    if s.is_null() {
-        return None;
-    }
-    // SAFETY: non-null, NUL-terminated per the caller's contract.
-    Some(unsafe { CStr::from_ptr(s) }.to_string_lossy().into_owned())
-}
-
-fn percent_decode(s: &str) -> Result<String, String> {
-    let b = s.as_bytes();
-    let mut out = Vec::with_capacity(b.len());
-    let mut i = 0;
-    while i < b.len() {
-        if b[i] == b'%' {
-            let hex = s
-                .get(i + 1..i + 3)
-                .and_then(|h| u8::from_str_radix(h, 16).ok())
-                .ok_or_else(|| format!("bad percent-encoding in '{s}'"))?;
-            out.push(hex);
-            i += 3;
-        } else {
-            out.push(b[i]);
-            i += 1;
-        }
-    }
-    String::from_utf8(out).map_err(|_| format!("resource location '{s}' is not UTF-8"))
-}
-
-/// The resources folder from `fmuResourceLocation` (`file:///p`, `file:/p`,
-/// `file://localhost/p`, percent-encoded, with or without trailing slash, or a plain
-/// path).
-pub fn resource_dir(loc: &str) -> Result<PathBuf, String> {
-    let rest = if let Some(r) = loc.strip_prefix("file://") {
-        if let Some(r2) = r.strip_prefix("localhost") {
-            r2.to_string()
-        } else if r.starts_with('/') {
-            r.to_string()
-        } else {
-            return Err(format!("resource location '{loc}' names a remote host"));
-        }
-    } else if let Some(r) = loc.strip_prefix("file:") {
-        r.to_string()
-    } else {
-        loc.to_string()
-    };
-    let p = percent_decode(&rest)?;
-    Ok(PathBuf::from(p.trim_end_matches('/').to_string() + "/"))
-}
+use crate::trampoline::{
+    call, deserialize_state, free, free_state, get_state, into_raw, load_slave, no_such,
+    resource_dir, serialize_state, set_state, slice, slice_mut, state_size, string, Api, Instance,
+    Logger, Status,
+};
+use std::ffi::{c_char, CString};
+use std::panic::catch_unwind;
 
 fn instantiate(
     name: &str,
@@ -199,7 +29,7 @@ fn instantiate(
         );
     }
     let loc = loc.ok_or("fmuResourceLocation is NULL")?;
-    Model::load(&resource_dir(&loc)?, name, guid)
+    load_slave(Api::Fmi2, name, guid, resource_dir(&loc)?)
 }
 
 /// `fmi2GetTypesPlatform`.
@@ -243,23 +73,13 @@ pub unsafe extern "C" fn fmi2Instantiate(
             (f.logger, f.component_environment)
         };
         let cname = CString::new(name.replace('\0', " ")).unwrap_or_default();
+        let logger = Logger::Fmi2(logger, env);
         match instantiate(&name, fmu_type, guid, loc) {
-            Ok(slave) => {
-                let inst = Box::new(Instance {
-                    name: cname,
-                    logger,
-                    env,
-                    debug: logging_on != 0,
-                    slave,
-                });
-                Box::into_raw(inst) as Fmi2Component
-            }
+            Ok(slave) => into_raw(Instance::new(cname, logger, logging_on != 0, slave)),
             Err(msg) => {
-                log_with(
-                    logger,
-                    env,
+                logger.log(
                     &cname,
-                    Fmi2Status::Error,
+                    Status::Error,
                     "logStatusError",
                     &format!("fmi2Instantiate: {msg}"),
                 );
@@ -276,10 +96,8 @@ pub unsafe extern "C" fn fmi2Instantiate(
 /// See the module docs; `c` must not be used afterwards.
 #[no_mangle]
 pub unsafe extern "C" fn fmi2FreeInstance(c: Fmi2Component) {
-    if !c.is_null() {
-        // SAFETY: `c` came from Box::into_raw in fmi2Instantiate and is freed once.
-        drop(unsafe { Box::from_raw(c as *mut Instance) });
-    }
+    // SAFETY: `c` is NULL or came from fmi2Instantiate and is freed once (module docs).
+    unsafe { free(c) };
 }
 
 /// `fmi2SetDebugLogging`.
@@ -295,7 +113,7 @@ pub unsafe extern "C" fn fmi2SetDebugLogging(
 ) -> Fmi2Status {
     call(c, "fmi2SetDebugLogging", |i| {
         i.debug = logging_on != 0;
-        Ok(Fmi2Status::Ok)
+        Ok(Status::Ok)
     })
 }
 
@@ -313,7 +131,7 @@ pub unsafe extern "C" fn fmi2SetupExperiment(
     _stop_time: Fmi2Real,
 ) -> Fmi2Status {
     call(c, "fmi2SetupExperiment", |i| {
-        i.slave.setup(start_time).map(|_| Fmi2Status::Ok)
+        i.slave.setup(start_time).map(|_| Status::Ok)
     })
 }
 
@@ -324,7 +142,7 @@ pub unsafe extern "C" fn fmi2SetupExperiment(
 #[no_mangle]
 pub unsafe extern "C" fn fmi2EnterInitializationMode(c: Fmi2Component) -> Fmi2Status {
     call(c, "fmi2EnterInitializationMode", |i| {
-        i.slave.enter_init().map(|_| Fmi2Status::Ok)
+        i.slave.enter_init().map(|_| Status::Ok)
     })
 }
 
@@ -335,7 +153,7 @@ pub unsafe extern "C" fn fmi2EnterInitializationMode(c: Fmi2Component) -> Fmi2St
 #[no_mangle]
 pub unsafe extern "C" fn fmi2ExitInitializationMode(c: Fmi2Component) -> Fmi2Status {
     call(c, "fmi2ExitInitializationMode", |i| {
-        i.slave.exit_init().map(|_| Fmi2Status::Ok)
+        i.slave.exit_init().map(|_| Status::Ok)
     })
 }
 
@@ -346,7 +164,7 @@ pub unsafe extern "C" fn fmi2ExitInitializationMode(c: Fmi2Component) -> Fmi2Sta
 #[no_mangle]
 pub unsafe extern "C" fn fmi2Terminate(c: Fmi2Component) -> Fmi2Status {
     call(c, "fmi2Terminate", |i| {
-        i.slave.terminate().map(|_| Fmi2Status::Ok)
+        i.slave.terminate().map(|_| Status::Ok)
     })
 }
 
@@ -358,7 +176,7 @@ pub unsafe extern "C" fn fmi2Terminate(c: Fmi2Component) -> Fmi2Status {
 pub unsafe extern "C" fn fmi2Reset(c: Fmi2Component) -> Fmi2Status {
     call(c, "fmi2Reset", |i| {
         i.slave.reset();
-        Ok(Fmi2Status::Ok)
+        Ok(Status::Ok)
     })
 }
 
@@ -399,16 +217,8 @@ pub unsafe extern "C" fn fmi2SetReal(
         let vr = unsafe { slice(vr, nvr, "vr") }?;
         // SAFETY: as above.
         let v = unsafe { slice(value, nvr, "value") }?;
-        i.slave.set_real(vr, v).map(|_| Fmi2Status::Ok)
+        i.slave.set_real(vr, v).map(|_| Status::Ok)
     })
-}
-
-fn no_such(kind: &str, nvr: usize) -> Result<Fmi2Status, String> {
-    if nvr == 0 {
-        Ok(Fmi2Status::Ok)
-    } else {
-        Err(format!("this FMU has no {kind} variables"))
-    }
 }
 
 /// `fmi2GetInteger` (no integer variables).
@@ -501,21 +311,8 @@ pub unsafe extern "C" fn fmi2SetString(
 /// See the module docs; `state` points to NULL or to a state from this FMU.
 #[no_mangle]
 pub unsafe extern "C" fn fmi2GetFMUstate(c: Fmi2Component, state: *mut Fmi2FmuState) -> Fmi2Status {
-    call(c, "fmi2GetFMUstate", |i| {
-        if state.is_null() {
-            return Err("FMUstate pointer is NULL".into());
-        }
-        let snap = i.slave.snapshot()?;
-        // SAFETY: `state` is a valid pointer to an fmi2FMUstate slot (checked non-null).
-        let slot = unsafe { &mut *state };
-        if slot.is_null() {
-            *slot = Box::into_raw(Box::new(snap)) as Fmi2FmuState;
-        } else {
-            // SAFETY: a non-null slot holds a Snapshot this FMU allocated.
-            unsafe { *(*slot as *mut Snapshot) = snap };
-        }
-        Ok(Fmi2Status::Ok)
-    })
+    // SAFETY: `state` as the standard prescribes (module docs; NULL detected).
+    call(c, "fmi2GetFMUstate", |i| unsafe { get_state(i, state) })
 }
 
 /// `fmi2SetFMUstate`.
@@ -524,14 +321,8 @@ pub unsafe extern "C" fn fmi2GetFMUstate(c: Fmi2Component, state: *mut Fmi2FmuSt
 /// See the module docs; `state` was returned by `fmi2GetFMUstate` of this FMU.
 #[no_mangle]
 pub unsafe extern "C" fn fmi2SetFMUstate(c: Fmi2Component, state: Fmi2FmuState) -> Fmi2Status {
-    call(c, "fmi2SetFMUstate", |i| {
-        if state.is_null() {
-            return Err("FMUstate is NULL".into());
-        }
-        // SAFETY: a non-null state is a Snapshot this FMU allocated.
-        let s = unsafe { &*(state as *const Snapshot) };
-        i.slave.restore(s).map(|_| Fmi2Status::Ok)
-    })
+    // SAFETY: `state` NULL or from fmi2GetFMUstate of this FMU (module docs).
+    call(c, "fmi2SetFMUstate", |i| unsafe { set_state(i, state) })
 }
 
 /// `fmi2FreeFMUstate`.
@@ -543,19 +334,8 @@ pub unsafe extern "C" fn fmi2FreeFMUstate(
     c: Fmi2Component,
     state: *mut Fmi2FmuState,
 ) -> Fmi2Status {
-    call(c, "fmi2FreeFMUstate", |_| {
-        if state.is_null() {
-            return Ok(Fmi2Status::Ok);
-        }
-        // SAFETY: valid pointer to a state slot (checked non-null).
-        let slot = unsafe { &mut *state };
-        if !slot.is_null() {
-            // SAFETY: the slot holds a Snapshot allocated by fmi2GetFMUstate; freed once.
-            drop(unsafe { Box::from_raw(*slot as *mut Snapshot) });
-            *slot = std::ptr::null_mut();
-        }
-        Ok(Fmi2Status::Ok)
-    })
+    // SAFETY: `state` as the standard prescribes (module docs; NULL detected).
+    call(c, "fmi2FreeFMUstate", |_| unsafe { free_state(state) })
 }
 
 /// `fmi2SerializedFMUstateSize`.
@@ -568,15 +348,9 @@ pub unsafe extern "C" fn fmi2SerializedFMUstateSize(
     state: Fmi2FmuState,
     size: *mut usize,
 ) -> Fmi2Status {
-    call(c, "fmi2SerializedFMUstateSize", |_| {
-        if state.is_null() || size.is_null() {
-            return Err("FMUstate or size is NULL".into());
-        }
-        // SAFETY: a Snapshot of this FMU (non-null).
-        let s = unsafe { &*(state as *const Snapshot) };
-        // SAFETY: non-null out pointer.
-        unsafe { *size = s.to_bytes().len() };
-        Ok(Fmi2Status::Ok)
+    // SAFETY: `state` of this FMU, `size` writable (module docs; NULL detected).
+    call(c, "fmi2SerializedFMUstateSize", |_| unsafe {
+        state_size(state, size)
     })
 }
 
@@ -591,23 +365,9 @@ pub unsafe extern "C" fn fmi2SerializeFMUstate(
     bytes: *mut Fmi2Byte,
     size: usize,
 ) -> Fmi2Status {
-    call(c, "fmi2SerializeFMUstate", |_| {
-        if state.is_null() {
-            return Err("FMUstate is NULL".into());
-        }
-        // SAFETY: a Snapshot of this FMU (non-null).
-        let s = unsafe { &*(state as *const Snapshot) };
-        let b = s.to_bytes();
-        if size < b.len() {
-            return Err(format!(
-                "buffer of {size} bytes is too small ({} needed)",
-                b.len()
-            ));
-        }
-        // SAFETY: buffer valid for `size` bytes (NULL detected).
-        let out = unsafe { slice_mut(bytes as *mut u8, b.len(), "serializedState") }?;
-        out.copy_from_slice(&b);
-        Ok(Fmi2Status::Ok)
+    // SAFETY: `state` of this FMU, `bytes` valid for `size` (module docs; NULL detected).
+    call(c, "fmi2SerializeFMUstate", |_| unsafe {
+        serialize_state(state, bytes as *mut u8, size)
     })
 }
 
@@ -622,21 +382,9 @@ pub unsafe extern "C" fn fmi2DeSerializeFMUstate(
     size: usize,
     state: *mut Fmi2FmuState,
 ) -> Fmi2Status {
-    call(c, "fmi2DeSerializeFMUstate", |_| {
-        if state.is_null() {
-            return Err("FMUstate pointer is NULL".into());
-        }
-        // SAFETY: buffer valid for `size` bytes (NULL detected).
-        let b = unsafe { slice(bytes as *const u8, size, "serializedState") }?;
-        let snap = Snapshot::from_bytes(b)?;
-        // SAFETY: valid slot pointer (checked non-null).
-        let slot = unsafe { &mut *state };
-        if !slot.is_null() {
-            // SAFETY: a non-null slot holds a Snapshot of this FMU; replaced.
-            drop(unsafe { Box::from_raw(*slot as *mut Snapshot) });
-        }
-        *slot = Box::into_raw(Box::new(snap)) as Fmi2FmuState;
-        Ok(Fmi2Status::Ok)
+    // SAFETY: `bytes` valid for `size`, `state` a slot (module docs; NULL detected).
+    call(c, "fmi2DeSerializeFMUstate", |_| unsafe {
+        deserialize_state(bytes as *const u8, size, state)
     })
 }
 
@@ -757,7 +505,7 @@ pub unsafe extern "C" fn fmi2GetRealStatus(
         }
         // SAFETY: non-null out pointer.
         unsafe { *value = i.slave.time() };
-        Ok(Fmi2Status::Ok)
+        Ok(Status::Ok)
     })
 }
 
@@ -797,7 +545,7 @@ pub unsafe extern "C" fn fmi2GetBooleanStatus(
         }
         // SAFETY: non-null out pointer.
         unsafe { *value = 0 };
-        Ok(Fmi2Status::Ok)
+        Ok(Status::Ok)
     })
 }
 

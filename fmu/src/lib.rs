@@ -1,12 +1,15 @@
-//! # mtwin-fmu — the twin as an FMI 2.0 co-simulation slave
+//! # mtwin-fmu — the twin as an FMI 2.0 and FMI 3.0 co-simulation slave
 //!
-//! A `cdylib` exporting the 34 functions of FMI 2.0 Co-Simulation, in three layers:
+//! A `cdylib` exporting the 34 functions of FMI 2.0 Co-Simulation and the functions of
+//! FMI 3.0 (Co-Simulation supported, the rest returning `fmi3Error`), in three layers:
 //!
-//! * [`ffi`] — the C types;
-//! * `exports` — the `extern "C"` functions, each through one trampoline (null checks,
-//!   `catch_unwind`, errors logged and returned as `fmi2Error`, never `fmi2Discard`);
-//! * [`slave`] — the safe core: life cycle, value references, `doStep` on the twin
-//!   interpolated at the current axis positions (the same state-space core as
+//! * [`ffi`] — the C types of both versions;
+//! * `exports` (FMI 2.0) and `exports3` (FMI 3.0) — the `extern "C"` functions, each
+//!   through one trampoline shared by both (`trampoline`: null checks, `catch_unwind`,
+//!   errors logged and returned as `fmi2Error`/`fmi3Error`, never `Discard`; an instance
+//!   that panicked refuses every later call);
+//! * [`slave`] — the safe core both drive: life cycle, value references, `doStep` on the
+//!   twin interpolated at the current axis positions (the same state-space core as
 //!   `mtwin simulate`).
 //!
 //! The same library is also the milling process's FMU ([`process`]: the regenerative
@@ -14,19 +17,23 @@
 //! an FMU carries decides which model an instance evaluates ([`model`]). [`ssp`] packages
 //! both FMUs with a `SystemStructure.ssd` that wires them (SSP 1.0).
 //!
-//! [`export::export_fmu`] packages a twin as an `.fmu` (zip with `modelDescription.xml`,
-//! `binaries/linux64/mtwin_tcp.so`, `resources/twin.json`); the resource is the lean
-//! twin of [`resources`] (pose models, no FRFs or history). No global state: instances
-//! are independent.
+//! [`export::export_fmu`] packages a twin as an FMI 2.0 `.fmu` (zip with
+//! `modelDescription.xml`, `binaries/linux64/mtwin_tcp.so`, `resources/twin.json`),
+//! [`export::export_fmu_as`] as either version (FMI 3.0: `binaries/x86_64-linux/`); the
+//! resource is the lean twin of [`resources`] (pose models, no FRFs or history). No global
+//! state: instances are independent.
 
 pub mod export;
 #[allow(missing_docs)]
 mod exports;
+#[allow(missing_docs)]
+mod exports3;
 pub mod ffi;
 pub mod model;
 pub mod process;
 pub mod resources;
 pub mod slave;
 pub mod ssp;
+mod trampoline;
 
-pub use exports::resource_dir;
+pub use trampoline::resource_dir;

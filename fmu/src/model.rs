@@ -26,9 +26,9 @@ macro_rules! both {
 }
 
 impl Model {
-    /// The model of the FMU whose resources are in `dir`, checked against the GUID the
-    /// importer passed.
-    pub fn load(dir: &Path, name: &str, guid: Option<String>) -> Result<Model, String> {
+    /// The model of the FMU whose resources are in `dir`, checked against the token the
+    /// importer passed (`what`: "GUID" or "instantiation token").
+    pub fn load(dir: &Path, name: &str, guid: Option<String>, what: &str) -> Result<Model, String> {
         let cut = dir.join("cut.json");
         let (model, want) = if cut.is_file() {
             let text = std::fs::read_to_string(&cut)
@@ -51,10 +51,22 @@ impl Model {
         match guid {
             Some(g) if g == want => Ok(model),
             Some(g) => Err(format!(
-                "GUID mismatch: the importer passed {g}, the FMU's resources have {want} \
+                "{what} mismatch: the importer passed {g}, the FMU's resources have {want} \
                  (modelDescription.xml and resources differ)"
             )),
-            None => Err("fmuGUID is NULL".into()),
+            None => Err(format!("the {what} is NULL")),
+        }
+    }
+
+    /// Exposes the independent variable `time` (FMI 3.0, the twin only: the process FMU
+    /// is FMI 2.0).
+    pub fn expose_time(&mut self) -> Result<(), String> {
+        match self {
+            Model::Twin(s) => {
+                s.expose_time();
+                Ok(())
+            }
+            Model::Cut(_) => Err("the process FMU is an FMI 2.0 FMU".into()),
         }
     }
 

@@ -689,7 +689,7 @@ pub fn export_process_fmu(
     crate::export::package(
         out,
         &xml,
-        MODEL_IDENTIFIER,
+        &crate::export::FmiVersion::V2.binary_path(MODEL_IDENTIFIER),
         embedded,
         &[("resources/cut.json", &json)],
     )

@@ -1,4 +1,5 @@
-//! The safe co-simulation slave: knows the twin, nothing of C.
+//! The safe co-simulation slave: knows the twin, nothing of C. The FMI 2.0 and the FMI 3.0
+//! exports both drive it.
 //!
 //! **Alignment with `mtwin simulate`** (zero-order hold, the FMI 2.0 co-simulation
 //! convention): the master sets the inputs valid at `t`, reads the outputs at `t`
@@ -168,6 +169,9 @@ pub struct Slave {
     outside: bool,
     /// Warnings not yet handed to the importer's logger.
     warnings: Vec<String>,
+    /// The value reference of the independent variable `time` (FMI 3.0, where the model
+    /// description must declare one), if exposed: [`Slave::time_value_reference`].
+    time_vr: Option<u32>,
 }
 
 impl Slave {
@@ -216,7 +220,21 @@ impl Slave {
             hi,
             outside: false,
             warnings: Vec::new(),
+            time_vr: None,
         })
+    }
+
+    /// The value reference of the independent variable `time` when it is exposed: the
+    /// one after the last variable of [`Slave::vars`], so the others keep the value
+    /// references they have without it.
+    pub fn time_value_reference(&self) -> u32 {
+        self.vars.len() as u32
+    }
+
+    /// Exposes the independent variable `time` (read only) at
+    /// [`Slave::time_value_reference`], as FMI 3.0 model descriptions declare it.
+    pub fn expose_time(&mut self) {
+        self.time_vr = Some(self.time_value_reference());
     }
 
     /// The variables in value-reference order.
@@ -244,19 +262,21 @@ impl Slave {
 
     fn var(&self, vr: u32) -> Result<Var, String> {
         self.vars.get(vr as usize).copied().ok_or_else(|| {
+            let time = match self.time_vr {
+                Some(t) => format!(" and {t} (time)"),
+                None => String::new(),
+            };
             format!(
-                "unknown value reference {vr} (this FMU has 0..={})",
+                "unknown value reference {vr} (this FMU has 0..={}{time})",
                 self.vars.len().saturating_sub(1)
             )
         })
     }
 
-    /// `fmi2SetupExperiment`.
+    /// The start time (`fmi2SetupExperiment`; part of `fmi3EnterInitializationMode`).
     pub fn setup(&mut self, start_time: f64) -> Result<(), String> {
         if self.phase != Phase::Instantiated {
-            return Err(
-                "fmi2SetupExperiment is only allowed right after instantiation or reset".into(),
-            );
+            return Err("the start time can only be set right after instantiation or reset".into());
         }
         if !start_time.is_finite() {
             return Err(format!("start time {start_time} is not finite"));
@@ -266,34 +286,34 @@ impl Slave {
         Ok(())
     }
 
-    /// `fmi2EnterInitializationMode`.
+    /// `fmi2EnterInitializationMode` / `fmi3EnterInitializationMode`.
     pub fn enter_init(&mut self) -> Result<(), String> {
         if self.phase != Phase::Instantiated {
-            return Err("fmi2EnterInitializationMode called twice or after initialization".into());
+            return Err("EnterInitializationMode called twice or after initialization".into());
         }
         self.phase = Phase::Initialization;
         Ok(())
     }
 
-    /// `fmi2ExitInitializationMode`.
+    /// `fmi2ExitInitializationMode` / `fmi3ExitInitializationMode` (into Step Mode).
     pub fn exit_init(&mut self) -> Result<(), String> {
         if self.phase != Phase::Initialization {
-            return Err("fmi2ExitInitializationMode without fmi2EnterInitializationMode".into());
+            return Err("ExitInitializationMode without EnterInitializationMode".into());
         }
         self.phase = Phase::StepComplete;
         Ok(())
     }
 
-    /// `fmi2Terminate`.
+    /// `fmi2Terminate` / `fmi3Terminate`.
     pub fn terminate(&mut self) -> Result<(), String> {
         if self.phase != Phase::StepComplete {
-            return Err("fmi2Terminate is only allowed after initialization".into());
+            return Err("Terminate is only allowed after initialization".into());
         }
         self.phase = Phase::Terminated;
         Ok(())
     }
 
-    /// `fmi2Reset`: back to the state right after instantiation.
+    /// `fmi2Reset` / `fmi3Reset`: back to the state right after instantiation.
     pub fn reset(&mut self) {
         self.sim.reset();
         self.inputs = self.start;
@@ -348,12 +368,15 @@ impl Slave {
         pose
     }
 
-    /// `fmi2SetReal`.
+    /// `fmi2SetReal` / `fmi3SetFloat64`.
     pub fn set_real(&mut self, vrs: &[u32], values: &[f64]) -> Result<(), String> {
         if self.phase == Phase::Terminated {
-            return Err("fmi2SetReal after fmi2Terminate".into());
+            return Err("setting a variable after Terminate".into());
         }
         for (vr, v) in vrs.iter().zip(values) {
+            if self.time_vr == Some(*vr) {
+                return Err("time is the independent variable and cannot be set".into());
+            }
             let var = self.var(*vr)?;
             let Some(i) = Self::slot(var) else {
                 return Err(format!("{} is an output and cannot be set", var.name()));
@@ -387,11 +410,15 @@ impl Slave {
         y
     }
 
-    /// `fmi2GetReal`.
+    /// `fmi2GetReal` / `fmi3GetFloat64`.
     pub fn get_real(&mut self, vrs: &[u32], out: &mut [f64]) -> Result<(), String> {
         // outputs only when asked for (inputs are read back as set)
         let mut y: Option<[f64; 3]> = None;
         for (vr, o) in vrs.iter().zip(out.iter_mut()) {
+            if self.time_vr == Some(*vr) {
+                *o = self.time;
+                continue;
+            }
             let var = self.var(*vr)?;
             *o = match var {
                 Var::Disp(a) => {
@@ -411,10 +438,12 @@ impl Slave {
         Ok(())
     }
 
-    /// `fmi2DoStep`.
+    /// `fmi2DoStep` / `fmi3DoStep`.
     pub fn do_step(&mut self, t: f64, h: f64) -> Result<(), String> {
         if self.phase != Phase::StepComplete {
-            return Err("fmi2DoStep is only allowed after fmi2ExitInitializationMode and before fmi2Terminate".into());
+            return Err(
+                "DoStep is only allowed after ExitInitializationMode and before Terminate".into(),
+            );
         }
         if !(h >= 0.0 && h.is_finite() && t.is_finite()) {
             return Err(format!(
@@ -446,7 +475,7 @@ impl Slave {
         Ok(())
     }
 
-    /// Snapshot for `fmi2GetFMUstate`.
+    /// Snapshot for `fmi2GetFMUstate` / `fmi3GetFMUState`.
     pub fn snapshot(&self) -> Snapshot {
         Snapshot {
             time: self.time,
@@ -456,7 +485,7 @@ impl Slave {
         }
     }
 
-    /// `fmi2SetFMUstate`.
+    /// `fmi2SetFMUstate` / `fmi3SetFMUState`.
     pub fn restore(&mut self, s: &Snapshot) -> Result<(), String> {
         if !self.sim.set_state(&s.state) {
             return Err("FMU state belongs to another FMU (state size differs)".into());

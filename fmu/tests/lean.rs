@@ -279,3 +279,118 @@ fn leaving_the_measured_box_warns_once_per_excursion() {
     assert!(warned[1].1.contains("z = "), "{}", warned[1].1);
     assert!(warned[0].1.contains("clamped"), "{}", warned[0].1);
 }
+
+/// The FMI 3.0 FMU: the same variables as the FMI 2.0 one (names, value references,
+/// causality, variability, descriptions, min/max/start, units and quantities through
+/// declared types, dependencies translated from indices to value references) plus the
+/// independent variable `time`,
+/// written with quick-xml and read back identically; the library under
+/// `binaries/x86_64-linux/`, the same resources.
+#[test]
+fn fmi3_model_description_carries_the_fmi2_variable_table() {
+    use model_description::fmi3;
+    use mtwin_fmu::export::{export_fmu_as, model_description_xml, FmiVersion};
+    let twin = campaign_twin();
+    let md2 =
+        ModelDescription::from_xml(&model_description_xml(&twin, FmiVersion::V2).unwrap()).unwrap();
+    let xml = model_description_xml(&twin, FmiVersion::V3).unwrap();
+    assert!(xml.contains(r#"fmiVersion="3.0""#) && xml.contains("instantiationToken="));
+    let md3 = fmi3::ModelDescription::from_xml(&xml).expect("parse FMI 3");
+    assert_eq!(
+        fmi3::ModelDescription::from_xml(&md3.to_xml().unwrap()).unwrap(),
+        md3
+    );
+    assert_eq!(md3.instantiation_token, md2.guid);
+    assert_eq!(md3.description, md2.description);
+    assert_eq!(md3.co_simulation.model_identifier, "mtwin_tcp");
+    assert_eq!(
+        md3.co_simulation
+            .can_handle_variable_communication_step_size,
+        Some(true)
+    );
+    assert_eq!(md3.co_simulation.can_get_and_set_fmu_state, Some(true));
+    let n = md2.model_variables.variables.len() as u32;
+    let time = &md3.model_variables.variables[0];
+    assert_eq!(
+        (
+            time.name.as_str(),
+            time.value_reference,
+            time.causality.as_deref()
+        ),
+        ("time", n, Some("independent"))
+    );
+    assert_eq!(
+        md3.model_variables.variables.len(),
+        md2.model_variables.variables.len() + 1
+    );
+    for (v2, v3) in md2
+        .model_variables
+        .variables
+        .iter()
+        .zip(&md3.model_variables.variables[1..])
+    {
+        assert_eq!(v3.name, v2.name);
+        assert_eq!(v3.value_reference, v2.value_reference);
+        assert_eq!(
+            (&v3.causality, &v3.variability),
+            (&v2.causality, &v2.variability)
+        );
+        assert_eq!(v3.description, v2.description);
+        let t = md3.declared_type(v3).expect("declaredType");
+        assert_eq!((&t.quantity, &t.unit), (&v2.real.quantity, &v2.real.unit));
+        assert_eq!((&v3.quantity, &v3.unit), (&None, &None));
+        assert_eq!(
+            (v3.min, v3.max, v3.start),
+            (v2.real.min, v2.real.max, v2.real.start)
+        );
+    }
+    let units3: Vec<String> = md3
+        .unit_definitions
+        .as_ref()
+        .unwrap()
+        .units
+        .iter()
+        .map(|u| u.name.clone())
+        .collect();
+    assert_eq!(units3, ["N", "m", "s"]);
+    // dependencies: 1-based indices in FMI 2.0, value references (index - 1) in FMI 3.0
+    let vr_of_index = |i: &str| (i.parse::<u32>().unwrap() - 1).to_string();
+    for (u2, u3) in md2
+        .model_structure
+        .outputs
+        .unknowns
+        .iter()
+        .zip(&md3.model_structure.outputs)
+    {
+        assert_eq!(u3.value_reference, u2.index - 1);
+        let want: Vec<String> = u2
+            .dependencies
+            .as_deref()
+            .unwrap_or("")
+            .split_whitespace()
+            .map(vr_of_index)
+            .collect();
+        assert_eq!(u3.dependencies.as_deref(), Some(want.join(" ").as_str()));
+    }
+    assert_eq!(
+        md3.model_structure.outputs.len(),
+        md2.model_structure.outputs.unknowns.len()
+    );
+    assert_eq!(
+        md3.model_structure.initial_unknowns,
+        md3.model_structure.outputs
+    );
+    // the package
+    let d = tempfile::tempdir().expect("tmp");
+    let p = d.path().join("t3.fmu");
+    export_fmu_as(&twin, &p, Some(FAKE_SO), FmiVersion::V3).expect("export");
+    assert_eq!(
+        read_entry(&p, "binaries/x86_64-linux/mtwin_tcp.so"),
+        FAKE_SO
+    );
+    let res = String::from_utf8(read_entry(&p, "resources/twin.json")).unwrap();
+    let lean = FmuTwin::from_json(&res, Path::new("twin.json")).expect("lean");
+    assert_eq!(lean.guid, md2.guid);
+    let z = zip::ZipArchive::new(std::fs::File::open(&p).unwrap()).unwrap();
+    assert!(z.file_names().all(|f| !f.starts_with("binaries/linux64")));
+}

@@ -1,8 +1,9 @@
-//! # model-description — FMI 2.0 `modelDescription.xml` as typed Rust structs
+//! # model-description — FMI 2.0 and 3.0 `modelDescription.xml` as typed Rust structs
 //!
 //! The subset of the FMI 2.0 schema a co-simulation slave with real-valued variables
 //! needs, mirroring the schema's element and attribute names (optional attributes are
-//! `Option`), written and read with quick-xml's serde support.
+//! `Option`), written and read with quick-xml's serde support. [`fmi3`] holds the FMI 3.0
+//! counterpart, derived from an FMI 2.0 description so both come from one variable table.
 //!
 //! ```
 //! use model_description::*;
@@ -18,6 +19,8 @@
 #![deny(missing_docs)]
 
 use serde::{Deserialize, Serialize};
+
+pub mod fmi3;
 
 /// Errors of (de)serialisation.
 #[derive(Debug)]
@@ -460,17 +463,22 @@ impl ModelDescription {
 
     /// The XML text (with declaration).
     pub fn to_xml(&self) -> Result<String, Error> {
-        let mut body = String::new();
-        let mut ser = quick_xml::se::Serializer::new(&mut body);
-        ser.indent(' ', 2);
-        self.serialize(ser).map_err(|e| Error(e.to_string()))?;
-        Ok(format!(
-            "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n{body}\n"
-        ))
+        xml_text(self)
     }
 
     /// Parses XML text.
     pub fn from_xml(xml: &str) -> Result<Self, Error> {
         quick_xml::de::from_str(xml).map_err(|e| Error(e.to_string()))
     }
+}
+
+/// `value` as XML text with declaration, indented by two spaces.
+fn xml_text<T: Serialize>(value: &T) -> Result<String, Error> {
+    let mut body = String::new();
+    let mut ser = quick_xml::se::Serializer::new(&mut body);
+    ser.indent(' ', 2);
+    value.serialize(ser).map_err(|e| Error(e.to_string()))?;
+    Ok(format!(
+        "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n{body}\n"
+    ))
 }

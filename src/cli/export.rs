@@ -3,7 +3,7 @@
 use super::Output;
 use anyhow::Result;
 use identify::twin::Twin;
-use mtwin_fmu::export::FmuSize;
+use mtwin_fmu::export::{FmiVersion, FmuSize};
 use std::path::{Path, PathBuf};
 
 /// Arguments of `mtwin export`.
@@ -15,6 +15,11 @@ pub struct Args {
     /// The FMU to write.
     #[arg(long)]
     pub out: PathBuf,
+    /// FMI version of the FMU: 2 (FMI 2.0, `binaries/linux64/`) or 3 (FMI 3.0,
+    /// `binaries/x86_64-linux/`, Float64 variables plus the independent variable `time`).
+    /// Same slave library, resources and variables.
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u8).range(2..=3))]
+    pub fmi: u8,
 }
 
 /// The FMU slave library built into this binary (see build.rs), if it was.
@@ -25,12 +30,18 @@ pub const EMBEDDED_SLAVE: Option<&[u8]> =
 #[cfg(not(mtwin_embedded_fmu))]
 pub const EMBEDDED_SLAVE: Option<&[u8]> = None;
 
-/// Writes the FMU of `twin` to `out`; returns its sizes.
+/// Writes the FMI 2.0 FMU of `twin` to `out`; returns its sizes.
 pub fn export(twin: &Twin, out: &Path) -> Result<FmuSize> {
-    Ok(mtwin_fmu::export::export_fmu_with(
+    export_as(twin, out, FmiVersion::V2)
+}
+
+/// Writes the FMU of `twin` in FMI `version` to `out`; returns its sizes.
+pub fn export_as(twin: &Twin, out: &Path, version: FmiVersion) -> Result<FmuSize> {
+    Ok(mtwin_fmu::export::export_fmu_as(
         twin,
         out,
         EMBEDDED_SLAVE,
+        version,
     )?)
 }
 
@@ -106,10 +117,20 @@ pub fn extensions_in_fmu(twin: &Twin) -> (Vec<String>, Vec<String>) {
 pub fn run(a: Args, out: &Output) -> Result<()> {
     super::check_output_not_input(&a.out, std::slice::from_ref(&a.twin))?;
     let twin = Twin::load(&a.twin)?;
-    let size = export(&twin, &a.out)?;
+    let version = if a.fmi == 3 {
+        FmiVersion::V3
+    } else {
+        FmiVersion::V2
+    };
+    let size = export_as(&twin, &a.out, version)?;
     let slave = slave_source();
+    let token = match version {
+        FmiVersion::V2 => "GUID",
+        FmiVersion::V3 => "instantiationToken",
+    };
     out.say(format!(
-        "FMU (FMI 2.0 co-simulation, GUID {}, slave library {slave}) -> {}",
+        "FMU (FMI {} co-simulation, {token} {}, slave library {slave}) -> {}",
+        version.number(),
         twin.guid(),
         a.out.display()
     ));
@@ -130,6 +151,7 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
     }
     out.json(&serde_json::json!({
         "out": a.out,
+        "fmi_version": version.number(),
         "guid": twin.guid(),
         "slave_library": slave,
         "extensions_in_fmu": carried,

@@ -21,7 +21,7 @@ use std::path::{Path, PathBuf};
 
 /// mtwin — a lifetime-adaptive digital twin of a machine tool's tool-center-point
 /// dynamics, identified from impact/chirp tests, refitted from operating data and
-/// exported as an FMI 2.0 co-simulation FMU.
+/// exported as an FMI 2.0 (or 3.0) co-simulation FMU.
 #[derive(Debug, Parser)]
 #[command(name = "mtwin", version, about, long_about = None)]
 pub struct Cli {
@@ -75,9 +75,9 @@ pub enum Cmd {
     ///
     /// Example: mtwin diagnose --twin twin.json test.csv --out diag/
     Diagnose(diagnose::Args),
-    /// FMI 2.0 co-simulation FMU of the twin.
+    /// FMI 2.0 co-simulation FMU of the twin (`--fmi 3`: FMI 3.0).
     ///
-    /// Example: mtwin export --twin twin.json --out machine.fmu
+    /// Example: mtwin export --twin twin.json --out machine.fmu [--fmi 3]
     Export(export::Args),
     /// Milling stability lobes from the twin's tool-tip FRF at a pose: zero-order
     /// (Altintas–Budak) and semi-discretisation (Insperger–Stépán).

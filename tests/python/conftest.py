@@ -1,4 +1,5 @@
-"""Builds the FMU the tests load: generated campaign -> `mtwin identify` -> `mtwin export`,
+"""Builds the FMUs the tests load: generated campaign -> `mtwin identify` -> `mtwin export`
+(FMI 2.0, and `--fmi 3` for FMI 3.0),
 and the reference prediction `mtwin simulate --hold zoh` on a record with moving axes."""
 import io
 import os
@@ -36,7 +37,8 @@ def built(tmp_path_factory):
     campaign = sorted((d / "campaign").glob("*.csv"))
     run(MTWIN, "--quiet", "identify", *campaign, "--fmin", "30", "--fmax", "2500", "--out", d / "twin.json")
     run(MTWIN, "--quiet", "export", "--twin", d / "twin.json", "--out", d / "twin.fmu")
+    run(MTWIN, "--quiet", "export", "--twin", d / "twin.json", "--fmi", "3", "--out", d / "twin3.fmu")
     run(MTWIN, "--quiet", "simulate", "--twin", d / "twin.json", d / "moving.csv", "--out", d / "pred.csv")
     data = load_csv(d / "moving.csv")
     pred = load_csv(d / "pred.csv")
-    return {"dir": d, "fmu": str(d / "twin.fmu"), "data": data, "pred": pred}
+    return {"dir": d, "fmu": str(d / "twin.fmu"), "fmu3": str(d / "twin3.fmu"), "data": data, "pred": pred}
