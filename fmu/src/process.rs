@@ -108,7 +108,7 @@ const PARAMS: [Param; 12] = [
     },
     Param {
         name: "teeth",
-        unit: None,
+        unit: Some("1"),
         quantity: None,
         description: "Number of teeth (a whole number >= 1)",
         get: |c| f64::from(c.teeth),
@@ -124,7 +124,7 @@ const PARAMS: [Param; 12] = [
     },
     Param {
         name: "kr",
-        unit: None,
+        unit: Some("1"),
         quantity: None,
         description: "Radial to tangential cutting force ratio",
         get: |c| c.kr,
@@ -132,7 +132,7 @@ const PARAMS: [Param; 12] = [
     },
     Param {
         name: "immersion",
-        unit: None,
+        unit: Some("1"),
         quantity: None,
         description: "Radial immersion a_e/D, in (0, 1] (1: slotting)",
         get: |c| c.immersion,
@@ -140,7 +140,7 @@ const PARAMS: [Param; 12] = [
     },
     Param {
         name: "down",
-        unit: None,
+        unit: Some("1"),
         quantity: None,
         description: "1 for down (climb) milling, 0 for up milling",
         get: |c| if c.down { 1.0 } else { 0.0 },
@@ -164,7 +164,7 @@ const PARAMS: [Param; 12] = [
     },
     Param {
         name: "slices",
-        unit: None,
+        unit: Some("1"),
         quantity: None,
         description: "Axial slices the depth of cut is divided into when the helix angle is \
                       not zero (a whole number >= 1)",
@@ -638,6 +638,7 @@ fn base_unit(u: &str) -> Option<model_description::BaseUnit> {
         "s" => b(0, 0, 1),
         "N/m2" => b(1, -1, -2),
         "1/min" => b(0, 0, -1),
+        "1" => b(0, 0, 0),
         _ => None,
     }
 }
