@@ -4,9 +4,10 @@
 //! the mode frequencies over the machine's life.
 
 use crate::report::{esc, page, plot, Scale, Series};
+use identify::axis::PoseText;
 use identify::model::ModalModel;
 use identify::operating::operating_spectra;
-use identify::refit::{default_nfft, simulate_record, RefitReport};
+use identify::refit::{default_nfft, mode_numbers, simulate_record, RefitReport};
 use identify::timeseries::TimeSeries;
 use identify::twin::Twin;
 use std::f64::consts::PI;
@@ -20,14 +21,12 @@ pub fn refit_report(old: &Twin, new: &Twin, rep: &RefitReport, series: &[TimeSer
     let mut b = String::new();
     let _ = writeln!(
         b,
-        "<p>Refit of <code>{}</code> from {} operating record(s) at pose ({:.3}, {:.3}, {:.3}) m \
-         with the <b>{:?}</b> method.</p>",
+        "<p>Refit of <code>{}</code> from {} operating record(s) at pose {} \
+         with the <b>{}</b> method. Modes are numbered from 1 (mode 1 = the lowest).</p>",
         esc(&new.name),
         series.len(),
-        rep.pose[0],
-        rep.pose[1],
-        rep.pose[2],
-        rep.method
+        PoseText(rep.pose),
+        format!("{:?}", rep.method).to_lowercase()
     );
     let _ = writeln!(
         b,
@@ -64,13 +63,13 @@ pub fn refit_report(old: &Twin, new: &Twin, rep: &RefitReport, series: &[TimeSer
             .join(", ");
         let _ = writeln!(
             b,
-            "<h2>Held-out check</h2><p>{}. Split: {}. Modes the data excite: {:?}; refused at an \
-             identity bound: {:?}. Twin's relative discrepancy per channel (added to the \
+            "<h2>Held-out check</h2><p>{}. Split: {}. Modes the data excite: {}; refused at an \
+             identity bound: {}. Twin's relative discrepancy per channel (added to the \
              standard errors): {}.</p>",
             esc(&h.note),
             esc(&h.split),
-            h.candidates,
-            h.refused_at_bound,
+            mode_numbers(&h.candidates),
+            mode_numbers(&h.refused_at_bound),
             esc(&disc)
         );
     }
@@ -101,7 +100,7 @@ pub fn refit_report(old: &Twin, new: &Twin, rep: &RefitReport, series: &[TimeSer
                 b,
                 "<tr><td>{}</td><td>{:.2}</td><td>{:.2}</td><td>{:+.2} %</td><td>{:.2} %</td>\
                  <td>{:.2} %</td></tr>",
-                m.mode,
+                m.mode + 1,
                 m.freq_before_hz,
                 m.freq_after_hz,
                 100.0 * (m.freq_after_hz / m.freq_before_hz - 1.0),
@@ -120,11 +119,7 @@ pub fn refit_report(old: &Twin, new: &Twin, rep: &RefitReport, series: &[TimeSer
              measured pose (1 = in full).</p><table><tr><th>pose [m]</th><th>weight</th></tr>"
         );
         for (p, w) in &rep.pose_weights {
-            let _ = writeln!(
-                b,
-                "<tr><td>({:.3}, {:.3}, {:.3})</td><td>{w:.3}</td></tr>",
-                p[0], p[1], p[2]
-            );
+            let _ = writeln!(b, "<tr><td>{}</td><td>{w:.3}</td></tr>", PoseText(*p));
         }
         let _ = writeln!(b, "</table>");
     }
@@ -368,7 +363,7 @@ fn history_section(b: &mut String, twin: &Twin, pose: [f64; 3]) {
         })
         .collect();
     let labels: Vec<String> = (0..n_modes)
-        .map(|k| format!("mode {k} ({:.0} Hz)", states[0].modes[k].freq_hz()))
+        .map(|k| format!("mode {} ({:.0} Hz)", k + 1, states[0].modes[k].freq_hz()))
         .collect();
     let series: Vec<Series> = ys
         .iter()
