@@ -81,6 +81,8 @@ pub struct Panel<'a> {
     pub height: u32,
     /// A region shaded from the bottom of the panel up to this curve (x, y, label).
     pub shade: Option<(&'a [f64], &'a [f64], &'a str)>,
+    /// Where the legend goes (upper right unless said).
+    pub legend: SeriesLabelPosition,
 }
 
 impl<'a> Panel<'a> {
@@ -93,6 +95,7 @@ impl<'a> Panel<'a> {
             yrange: None,
             height,
             shade: None,
+            legend: SeriesLabelPosition::UpperRight,
         }
     }
 }
@@ -146,21 +149,64 @@ fn padded(r: (f64, f64), scale: Scale) -> (f64, f64) {
     }
 }
 
+/// The tick formatter of an axis spanning `span`: engineering labels; ticks within a
+/// billionth of the span of zero read `0`; on a log axis only the 1, 2 and 5 of each
+/// decade are labelled (the other grid lines stay, unlabelled).
+fn tick_formatter(span: f64, log: bool) -> impl Fn(&f64) -> String {
+    // a log axis lists a decade's end and the next one's start: label it once
+    let last = std::cell::RefCell::new(String::new());
+    move |v: &f64| {
+        if log {
+            let e = v.abs().log10();
+            let m = *v / 10f64.powf(e.round());
+            let m = if (m - 1.0).abs() < 1e-6 {
+                1.0
+            } else {
+                *v / 10f64.powf(e.floor())
+            };
+            if ![1.0, 2.0, 5.0].iter().any(|k| (m - k).abs() < 1e-6) {
+                return String::new();
+            }
+            let t = eng(*v);
+            if *last.borrow() == t {
+                return String::new();
+            }
+            last.replace(t.clone());
+            return t;
+        } else if v.abs() < 1e-9 * span.abs() {
+            return "0".into();
+        }
+        eng(*v)
+    }
+}
+
 type Area<'b> = DrawingArea<SVGBackend<'b>, plotters::coord::Shift>;
 
-fn draw_panel<'b, X, Y>(
-    area: &Area<'b>,
-    xr: X,
-    yr: Y,
-    panel: &Panel<'_>,
-    xlabel: &str,
-    caption: Option<&str>,
+/// Where a panel sits in its figure.
+struct Place<'a> {
+    xlabel: &'a str,
+    /// The figure's title, on the top panel.
+    caption: Option<&'a str>,
+    /// The bottom panel carries the x label.
     bottom: bool,
-) where
+    xlog: bool,
+    ylog: bool,
+}
+
+fn draw_panel<'b, X, Y>(area: &Area<'b>, xr: X, yr: Y, panel: &Panel<'_>, place: Place<'_>)
+where
     X: Ranged<ValueType = f64> + ValueFormatter<f64>,
     Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
 {
+    let Place {
+        xlabel,
+        caption,
+        bottom,
+        xlog,
+        ylog,
+    } = place;
     let (ylo, yhi) = (yr.range().start, yr.range().end);
+    let xr_span = xr.range().end - xr.range().start;
     let mut cb = ChartBuilder::on(area);
     cb.margin_left(8)
         .margin_right(16)
@@ -174,13 +220,22 @@ fn draw_panel<'b, X, Y>(
     let Ok(mut chart) = cb.build_cartesian_2d(xr, yr) else {
         return;
     };
+    let xfmt = tick_formatter(xr_span, xlog);
+    let yfmt = tick_formatter(yhi - ylo, ylog);
     let mut mesh = chart.configure_mesh();
     mesh.y_desc(panel.ylabel)
-        .x_label_formatter(&|v: &f64| eng(*v))
-        .y_label_formatter(&|v: &f64| eng(*v))
-        .light_line_style(RGBColor(238, 238, 238))
+        .x_label_formatter(&xfmt)
+        .y_label_formatter(&yfmt)
+        .y_labels((panel.height as usize / 32).clamp(3, 10))
+        .light_line_style(RGBColor(240, 240, 240))
         .bold_line_style(RGBColor(215, 215, 215))
         .label_style(("sans-serif", 12));
+    if xlog {
+        mesh.x_labels(40).x_max_light_lines(0);
+    }
+    if ylog {
+        mesh.y_labels(40).y_max_light_lines(0);
+    }
     if bottom {
         mesh.x_desc(xlabel);
     }
@@ -227,7 +282,9 @@ fn draw_panel<'b, X, Y>(
             let mut runs: Vec<Vec<(f64, f64)>> = vec![Vec::new()];
             for (x, y) in s.x.iter().zip(s.y) {
                 if x.is_finite() && ok(*y) {
-                    runs.last_mut().map(|r| r.push((*x, y.clamp(ylo, yhi))));
+                    if let Some(r) = runs.last_mut() {
+                        r.push((*x, y.clamp(ylo, yhi)));
+                    }
                 } else if runs.last().is_some_and(|r| !r.is_empty()) {
                     runs.push(Vec::new());
                 }
@@ -249,7 +306,7 @@ fn draw_panel<'b, X, Y>(
     if panel.series.iter().any(|s| !s.label.is_empty()) || panel.shade.is_some() {
         let _ = chart
             .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
+            .position(panel.legend.clone())
             .background_style(WHITE.mix(0.85))
             .border_style(RGBColor(150, 150, 150))
             .label_font(("sans-serif", 12))
@@ -298,36 +355,52 @@ pub fn figure(f: &Figure<'_>) -> String {
                     LogCoord::from((xr.0..xr.1).log_scale()),
                     LogCoord::from((yr.0..yr.1).log_scale()),
                     p,
-                    f.xlabel,
-                    caption,
-                    bottom,
+                    Place {
+                        xlabel: f.xlabel,
+                        caption,
+                        bottom,
+                        xlog: true,
+                        ylog: true,
+                    },
                 ),
                 (Scale::Log, Scale::Lin) => draw_panel(
                     &area,
                     LogCoord::from((xr.0..xr.1).log_scale()),
                     RangedCoordf64::from(yr.0..yr.1),
                     p,
-                    f.xlabel,
-                    caption,
-                    bottom,
+                    Place {
+                        xlabel: f.xlabel,
+                        caption,
+                        bottom,
+                        xlog: true,
+                        ylog: false,
+                    },
                 ),
                 (Scale::Lin, Scale::Log) => draw_panel(
                     &area,
                     RangedCoordf64::from(xr.0..xr.1),
                     LogCoord::from((yr.0..yr.1).log_scale()),
                     p,
-                    f.xlabel,
-                    caption,
-                    bottom,
+                    Place {
+                        xlabel: f.xlabel,
+                        caption,
+                        bottom,
+                        xlog: false,
+                        ylog: true,
+                    },
                 ),
                 (Scale::Lin, Scale::Lin) => draw_panel(
                     &area,
                     RangedCoordf64::from(xr.0..xr.1),
                     RangedCoordf64::from(yr.0..yr.1),
                     p,
-                    f.xlabel,
-                    caption,
-                    bottom,
+                    Place {
+                        xlabel: f.xlabel,
+                        caption,
+                        bottom,
+                        xlog: false,
+                        ylog: false,
+                    },
                 ),
             }
         }
@@ -350,8 +423,8 @@ pub fn stabilization_figure(
         .iter()
         .flat_map(|s| s.y.iter().copied())
         .filter(|v| v.is_finite())
-        .fold(1.0_f64, f64::max)
-        + 2.0;
+        .fold(1.0_f64, f64::max);
+    let top = top * 1.05 + 2.0;
     let Some(mr) = data_range(frf.1.iter(), Scale::Log) else {
         return format!("<p>(no data for “{}”)</p>", esc(title));
     };
@@ -381,16 +454,19 @@ pub fn stabilization_figure(
             .configure_mesh()
             .x_desc("frequency [Hz]")
             .y_desc("model order")
-            .x_label_formatter(&|v: &f64| eng(*v))
+            .x_label_formatter(&tick_formatter(xrange.1 - xrange.0, true))
             .y_label_formatter(&|v: &f64| eng(*v))
-            .light_line_style(RGBColor(238, 238, 238))
+            .x_labels(40)
+            .x_max_light_lines(0)
+            .light_line_style(RGBColor(240, 240, 240))
             .bold_line_style(RGBColor(215, 215, 215))
             .label_style(("sans-serif", 12))
             .draw();
         let _ = chart
             .configure_secondary_axes()
             .y_desc(frf_ylabel)
-            .y_label_formatter(&|v: &f64| eng(*v))
+            .y_labels(40)
+            .y_label_formatter(&tick_formatter(mr.1 - mr.0, true))
             .label_style(("sans-serif", 12))
             .draw();
         let grey = RGBColor(140, 140, 140);
@@ -422,16 +498,18 @@ pub fn stabilization_figure(
                         .legend(move |(x, y)| Circle::new((x + 10, y), 3, c.filled()))
                 });
         }
-        let _ = chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperLeft)
-            .background_style(WHITE.mix(0.85))
-            .border_style(RGBColor(150, 150, 150))
-            .label_font(("sans-serif", 12))
-            .draw();
         let _ = root.present();
     }
-    svg
+    // the legend under the plot: inside, it would hide poles
+    let mut legend = format!("<span style=\"color:#8c8c8c\">━</span> {} ", esc(frf_label));
+    for s in poles {
+        let RGBColor(r, g, b) = color(s.color);
+        legend.push_str(&format!(
+            "&nbsp; <span style=\"color:#{r:02x}{g:02x}{b:02x}\">●</span> {}",
+            esc(s.label)
+        ));
+    }
+    format!("{svg}<p class=\"legend\">{legend}</p>")
 }
 
 /// An SVG line plot (one panel, linear x).
@@ -509,7 +587,7 @@ pub fn page(title: &str, body: &str) -> String {
          <style>body{{font-family:sans-serif;max-width:1000px;margin:2em auto;color:#222}}\
          table{{border-collapse:collapse}}td,th{{border:1px solid #ccc;padding:3px 8px;text-align:right}}\
          th{{background:#f3f3f3}}code{{background:#f3f3f3;padding:1px 4px}}\
-         .ok{{color:#2a7}}.bad{{color:#c33}}         .grid{{display:flex;flex-wrap:wrap;gap:4px}}.grid svg{{border:1px solid #eee}}         details{{margin:.6em 0;border-top:1px solid #ddd;padding-top:.4em}}summary{{cursor:pointer;font-size:1.05em}}         td small{{color:#666}}</style></head><body><h1>{t}</h1>\n{body}\n</body></html>\n",
+         .ok{{color:#2a7}}.bad{{color:#c33}}         .grid{{display:flex;flex-wrap:wrap;gap:4px}}.grid svg{{border:1px solid #eee}}         details{{margin:.6em 0;border-top:1px solid #ddd;padding-top:.4em}}summary{{cursor:pointer;font-size:1.05em}}         td small{{color:#666}}table.kv{{margin:0}}table.kv th,table.kv td{{text-align:left;border:none;border-bottom:1px solid #eee;padding:1px 6px}}table.kv th{{background:none;font-weight:normal;color:#555}}</style></head><body><h1>{t}</h1>\n{body}\n</body></html>\n",
         t = esc(title)
     )
 }

@@ -14,7 +14,7 @@ use std::fmt::Write as _;
 
 /// Most points drawn per line (the FRF is thinned to the extremes of log-spaced buckets,
 /// so no resonance peak is lost).
-const MAX_POINTS: usize = 700;
+const MAX_POINTS: usize = 400;
 
 /// Modal constant `A` of one mode in one channel (m/N·rad²/s²; for a real mode the
 /// numerator `b0`): the magnitude of `b1 p + b0` at the pole, signed by its real part.
@@ -352,8 +352,8 @@ pub fn identify_report(twin: &Twin, diagrams: &[StabilizationDiagram]) -> String
          would still score below 100 %, at most what the noise allows (<i>noise allows</i>). \
          <i>noise-free est.</i> estimates the model's fit to the noise-free FRF (the misfit's \
          power less the noise's); it is the number to compare with a fit against a known \
-         truth. Cross channels (xy, yx) carry little signal, so their measured fit is low \
-         even when the model is right.</p>"
+         truth. A channel with little signal (often a cross channel, xy or yx) can fit its \
+         measured FRF poorly even when the model is right: compare it with its noise limit.</p>"
     );
     if twin.poses.len() > 1 {
         let _ = writeln!(
@@ -370,14 +370,19 @@ pub fn identify_report(twin: &Twin, diagrams: &[StabilizationDiagram]) -> String
     }
     let _ = writeln!(
         b,
-        "<h2>Poses</h2><table><tr><th>pose</th><th>position</th>\
-         <th>modes</th><th>order</th><th>band [Hz]</th><th>fit per channel</th></tr>"
+        "<h2>Poses</h2><p>Per channel: fit to the measured FRF, and under it in grey the \
+         estimated fit to the noise-free FRF.</p><table><tr><th>pose</th><th>position</th>\
+         <th>modes</th><th>order</th><th>band [Hz]</th>{}</tr>",
+        twin.channels
+            .iter()
+            .map(|c| format!("<th>{c} [%]</th>"))
+            .collect::<String>()
     );
     for (i, p) in twin.poses.iter().enumerate() {
         let _ = writeln!(
             b,
             "<tr><td><a href=\"#pose-{n}\">{n}</a></td><td>{}</td><td>{}</td><td>{}</td>\
-             <td>{:.0}–{:.0}</td><td style=\"text-align:left\">{}</td></tr>",
+             <td>{:.0}–{:.0}</td>{}</tr>",
             PoseText(p.pose),
             p.order.modes,
             if p.order.automatic {
@@ -387,7 +392,18 @@ pub fn identify_report(twin: &Twin, diagrams: &[StabilizationDiagram]) -> String
             },
             p.band_hz[0],
             p.band_hz[1],
-            p.fit.iter().map(fit_text).collect::<Vec<_>>().join("<br>"),
+            twin.channels
+                .iter()
+                .map(|c| p.fit.iter().find(|f| f.channel == *c).map_or(
+                    "<td>—</td>".to_string(),
+                    |f| format!(
+                        "<td>{:.1}<br><small>{}</small></td>",
+                        f.fit_pct,
+                        f.noise_free_fit_pct
+                            .map_or("—".to_string(), |v| format!("{v:.1}"))
+                    )
+                ))
+                .collect::<String>(),
             n = i + 1,
         );
     }
@@ -486,9 +502,10 @@ pub fn identify_report(twin: &Twin, diagrams: &[StabilizationDiagram]) -> String
         );
         let _ = writeln!(
             b,
-            "<h3>Modes at pose {}</h3>{}",
+            "<h3>Modes at pose {}</h3>{}<p>Fit per channel: {}.</p>",
             i + 1,
-            modes_table(&p.model)
+            modes_table(&p.model),
+            p.fit.iter().map(fit_text).collect::<Vec<_>>().join("; ")
         );
         pose_frfs(&mut b, i, p);
         if let Some(d) = diagrams.get(i) {

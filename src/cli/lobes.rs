@@ -211,6 +211,37 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
     Ok(())
 }
 
+/// Where the limit changes lobe between two neighbouring speeds: the chatter frequency
+/// jumps (by more than 3 %) and so does the depth (by more than 15 %). That is the lobe
+/// structure, not a sampling artefact: a new lobe's unstable region begins there as an
+/// island (a tongue whose tip is at that speed; above it the cut is stable again up to
+/// the older lobe), so the lowest unstable depth drops at once.
+pub fn new_lobe_between(a: &LobePoint, b: &LobePoint) -> bool {
+    let (fa, fb) = (a.chatter_hz, b.chatter_hz);
+    let (da, db) = (a.ap_lim_m, b.ap_lim_m);
+    da.is_finite()
+        && db.is_finite()
+        && fa > 0.0
+        && fb > 0.0
+        && (fa / fb).ln().abs() > 0.03_f64.ln_1p()
+        && (da / db).ln().abs() > 0.15_f64.ln_1p()
+}
+
+/// The limits in mm (cut at `top_mm`) with a break (NaN) where a new lobe takes over, so
+/// the plot does not draw a vertical line that no boundary follows.
+fn broken_at_new_lobes(pts: &[LobePoint], top_mm: f64) -> (Vec<f64>, Vec<f64>) {
+    let (mut x, mut y) = (Vec::new(), Vec::new());
+    for (i, p) in pts.iter().enumerate() {
+        if i > 0 && new_lobe_between(&pts[i - 1], p) {
+            x.push(0.5 * (pts[i - 1].rpm + p.rpm));
+            y.push(f64::NAN);
+        }
+        x.push(p.rpm);
+        y.push((p.ap_lim_m * 1e3).min(top_mm));
+    }
+    (x, y)
+}
+
 /// The lobes plot: the zero-order and semi-discretisation limits, the stable region
 /// (below the lower of the two) shaded, the cut's data in the title. Depths above a few
 /// times the smallest limit (the lobes' tops, `inf` = no chatter) are cut at the top.
@@ -230,8 +261,10 @@ fn lobes_svg(a: &Args, zoa: &[LobePoint], sd: &[LobePoint]) -> String {
     let zy: Vec<f64> = zoa.iter().map(mm).collect();
     let sx: Vec<f64> = sd.iter().map(|p| p.rpm).collect();
     let sy: Vec<f64> = sd.iter().map(mm).collect();
+    let (zbx, zby) = broken_at_new_lobes(zoa, top_mm);
+    let (sbx, sby) = broken_at_new_lobes(sd, top_mm);
     // stable region: below the lower limit; on the zero-order grid where SD is on it too
-    let same_grid = sd.len() == zoa.len();
+    let same_grid = sd.len() == zoa.len() && sx == zx;
     let (shx, shy) = if sd.is_empty() || !same_grid {
         (zx.clone(), zy.clone())
     } else {
@@ -242,16 +275,16 @@ fn lobes_svg(a: &Args, zoa: &[LobePoint], sd: &[LobePoint]) -> String {
     };
     let mut series = vec![Series {
         label: "zero-order (Altintas–Budak)",
-        x: &zx,
-        y: &zy,
+        x: &zbx,
+        y: &zby,
         color: 2,
         points: false,
     }];
     if !sd.is_empty() {
         series.push(Series {
             label: "semi-discretisation (Insperger–Stépán)",
-            x: &sx,
-            y: &sy,
+            x: &sbx,
+            y: &sby,
             color: 1,
             points: false,
         });
@@ -279,6 +312,7 @@ fn lobes_svg(a: &Args, zoa: &[LobePoint], sd: &[LobePoint]) -> String {
         panels: &[report::Panel {
             yrange: Some((0.0, top_mm * 1.02)),
             shade: Some((&shx, &shy, "stable (below both limits)")),
+            legend: plotters::chart::SeriesLabelPosition::LowerRight,
             ..report::Panel::new("limiting axial depth of cut [mm]", Scale::Lin, &series, 380)
         }],
     })

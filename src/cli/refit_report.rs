@@ -3,7 +3,7 @@
 //! modes that changed, how the change spread over the poses, and the whole history with
 //! the mode frequencies over the machine's life.
 
-use crate::report::{esc, page, plot, Scale, Series};
+use crate::report::{esc, figure, page, plot, Figure, Panel, Scale, Series};
 use identify::axis::PoseText;
 use identify::model::ModalModel;
 use identify::operating::operating_spectra;
@@ -148,8 +148,18 @@ fn frf_section(b: &mut String, old: &Twin, new: &Twin, rep: &RefitReport, series
         .max(rep.lines_hz.iter().copied().fold(0.0, f64::max))
         * 1.3;
     let hi = hi.min(*sp.freqs_hz.last().unwrap_or(&hi));
+    // from half the lowest mode: a log axis, as FRFs are read
+    let lo = 0.5
+        * m_old
+            .modes
+            .iter()
+            .map(|m| m.freq_hz())
+            .fold(f64::INFINITY, f64::min)
+            .min(hi / 20.0);
     let n = 800;
-    let f: Vec<f64> = (1..=n).map(|i| hi * i as f64 / n as f64).collect();
+    let f: Vec<f64> = (0..n)
+        .map(|i| lo * (hi / lo).powf(i as f64 / (n - 1) as f64))
+        .collect();
     let _ = writeln!(
         b,
         "<h2>Operating FRF vs the twin</h2><p>Receptance at the operating pose: the \
@@ -164,6 +174,7 @@ fn frf_section(b: &mut String, old: &Twin, new: &Twin, rep: &RefitReport, series
         let idx: Vec<usize> = rep
             .lines_hz
             .iter()
+            .filter(|&&lf| lf >= lo && lf <= hi)
             .filter_map(|lf| {
                 sp.freqs_hz
                     .iter()
@@ -171,74 +182,77 @@ fn frf_section(b: &mut String, old: &Twin, new: &Twin, rep: &RefitReport, series
             })
             .collect();
         let fx: Vec<f64> = idx.iter().map(|&k| sp.freqs_hz[k]).collect();
-        let mag_pts: Vec<f64> = idx.iter().map(|&k| h[k].norm()).collect();
+        let mag_pts: Vec<f64> = idx.iter().map(|&k| h[k].norm() * 1e6).collect();
         let ph_pts: Vec<f64> = idx.iter().map(|&k| h[k].arg() * 180.0 / PI).collect();
         let before: Vec<_> = f.iter().map(|&x| m_old.eval_hz(ci_old, x)).collect();
         let after: Vec<_> = f.iter().map(|&x| m_new.eval_hz(ci_new, x)).collect();
-        let mag = |v: &[num_complex::Complex64]| v.iter().map(|c| c.norm()).collect::<Vec<_>>();
+        let mag =
+            |v: &[num_complex::Complex64]| v.iter().map(|c| c.norm() * 1e6).collect::<Vec<_>>();
         let ph = |v: &[num_complex::Complex64]| {
             v.iter().map(|c| c.arg() * 180.0 / PI).collect::<Vec<_>>()
         };
         let (mb, ma, pb, pa) = (mag(&before), mag(&after), ph(&before), ph(&after));
         let name = ch.name();
-        b.push_str(&plot(
-            &format!("{name}: |H| [m/N]"),
-            "frequency [Hz]",
-            "|H| [m/N]",
-            &[
-                Series {
-                    label: "twin before",
-                    x: &f,
-                    y: &mb,
-                    color: 2,
-                    points: false,
-                },
-                Series {
-                    label: "twin after",
-                    x: &f,
-                    y: &ma,
-                    color: 1,
-                    points: false,
-                },
-                Series {
-                    label: "operating H1 (lines used)",
-                    x: &fx,
-                    y: &mag_pts,
-                    color: 0,
-                    points: true,
+        let mags = [
+            Series {
+                label: "operating H1 (lines used)",
+                x: &fx,
+                y: &mag_pts,
+                color: 0,
+                points: true,
+            },
+            Series {
+                label: "twin before",
+                x: &f,
+                y: &mb,
+                color: 2,
+                points: false,
+            },
+            Series {
+                label: "twin after",
+                x: &f,
+                y: &ma,
+                color: 1,
+                points: false,
+            },
+        ];
+        let phs = [
+            Series {
+                label: "",
+                x: &fx,
+                y: &ph_pts,
+                color: 0,
+                points: true,
+            },
+            Series {
+                label: "",
+                x: &f,
+                y: &pb,
+                color: 2,
+                points: false,
+            },
+            Series {
+                label: "",
+                x: &f,
+                y: &pa,
+                color: 1,
+                points: false,
+            },
+        ];
+        b.push_str(&figure(&Figure {
+            title: &format!("{name}: operating FRF vs the twin"),
+            xlabel: "frequency [Hz]",
+            xscale: Scale::Log,
+            xrange: Some((lo, hi)),
+            width: 760,
+            panels: &[
+                Panel::new("|H| [µm/N]", Scale::Log, &mags, 260),
+                Panel {
+                    yrange: Some((-190.0, 190.0)),
+                    ..Panel::new("phase [°]", Scale::Lin, &phs, 140)
                 },
             ],
-            Scale::Log,
-        ));
-        b.push_str(&plot(
-            &format!("{name}: phase [deg]"),
-            "frequency [Hz]",
-            "phase [deg]",
-            &[
-                Series {
-                    label: "twin before",
-                    x: &f,
-                    y: &pb,
-                    color: 2,
-                    points: false,
-                },
-                Series {
-                    label: "twin after",
-                    x: &f,
-                    y: &pa,
-                    color: 1,
-                    points: false,
-                },
-                Series {
-                    label: "operating H1 (lines used)",
-                    x: &fx,
-                    y: &ph_pts,
-                    color: 0,
-                    points: true,
-                },
-            ],
-            Scale::Lin,
-        ));
+        }));
     }
 }
 
