@@ -343,7 +343,7 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
                 kr: 0.3,
                 rpm_min: 2000.0,
                 rpm_max: 20000.0,
-                speeds: 400,
+                speeds: 200,
                 // both methods on the same speeds (one CSV, both lines in the plot)
                 sd_speeds: None,
                 sd_steps: 40,
@@ -380,7 +380,7 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
         lobe begins as an unstable island whose tip is at that speed (the lowest unstable depth \
         jumps there; above the island the cut is stable again up to the older lobe).</p>\
         <p>Before the refit:</p><img src=\"lobes_before.svg\" alt=\"lobes before\"><p>After the refit (worn mode):</p><img src=\"lobes_after_refit.svg\" alt=\"lobes after\">\
-        <p>Before the refit with the axes at (0, 0.6, 0) m instead of the centre: the modes move with the axes, and so do the lobes.</p><img src=\"lobes_corner.svg\" alt=\"lobes at a corner\">");
+        <p>Before the refit with the axes at (0.000, 0.600, 0.000) m instead of the centre: the modes move with the axes, and so do the lobes.</p><img src=\"lobes_corner.svg\" alt=\"lobes at a corner\">");
     identify::atomic::write_atomic(
         &dir.join("index.html"),
         page("mtwin demo", &html).as_bytes(),

@@ -212,7 +212,7 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
 }
 
 /// Where the limit changes lobe between two neighbouring speeds: the chatter frequency
-/// jumps (by more than 3 %) and so does the depth (by more than 15 %). That is the lobe
+/// jumps (by more than 1 %) and so does the depth (by more than 15 %). That is the lobe
 /// structure, not a sampling artefact: a new lobe's unstable region begins there as an
 /// island (a tongue whose tip is at that speed; above it the cut is stable again up to
 /// the older lobe), so the lowest unstable depth drops at once.
@@ -223,7 +223,7 @@ pub fn new_lobe_between(a: &LobePoint, b: &LobePoint) -> bool {
         && db.is_finite()
         && fa > 0.0
         && fb > 0.0
-        && (fa / fb).ln().abs() > 0.03_f64.ln_1p()
+        && (fa / fb).ln().abs() > 0.01_f64.ln_1p()
         && (da / db).ln().abs() > 0.15_f64.ln_1p()
 }
 
