@@ -81,6 +81,15 @@ fn value_text(v: &serde_json::Value) -> String {
     }
 }
 
+/// Two decimals, or `—` for a number that is not one (a score a cause does not have).
+fn num2(v: f64) -> String {
+    if v.is_finite() {
+        format!("{v:.2}")
+    } else {
+        "—".into()
+    }
+}
+
 /// Four significant digits, no exponent for everyday magnitudes.
 fn sig4(f: f64) -> String {
     if f == 0.0 || !f.is_finite() {
@@ -182,10 +191,10 @@ fn report(
     );
     for c in &diag.candidates {
         body.push_str(&format!(
-            "<tr><td><code>{}</code></td><td>{:.2}</td><td>{:.2}</td><td style='text-align:left'>{}</td></tr>",
+            "<tr><td><code>{}</code></td><td>{}</td><td>{}</td><td style='text-align:left'>{}</td></tr>",
             c.cause,
-            c.chi,
-            c.fit_holdout_pct,
+            num2(c.chi),
+            num2(c.fit_holdout_pct),
             details_rows(&c.details)
         ));
     }
@@ -196,10 +205,30 @@ fn report(
     let y0 = simulate_as_measured(twin, ts)?;
     let y1 = simulate_as_measured(ext, ts)?;
     let a = sp.holdout_start;
+    // one window for every axis, from the axis that responds most (the hit's direction):
+    // a cross axis's small response would otherwise stretch it over its noise
+    let modelled = |ax: identify::axis::Axis| {
+        y0.get(ax.index())
+            .is_some_and(|v| v.iter().any(|x| *x != 0.0))
+    };
+    let lead = ts
+        .response_axes()
+        .into_iter()
+        .filter(|ax| modelled(*ax))
+        .filter_map(|ax| {
+            let m = ts.response(ax)?;
+            let peak = m.get(a..)?.iter().fold(0.0_f64, |p, v| p.max(v.abs()));
+            Some((ax, peak))
+        })
+        .max_by(|x, y| x.1.total_cmp(&y.1));
+    let window = lead
+        .and_then(|(ax, _)| ts.response(ax))
+        .map(|m| signal_window(m, a, ts.len(), 4000));
     for ax in ts.response_axes() {
-        let Some(m) = ts.response(ax) else { continue };
-        let (lo, hi) = signal_window(m, a, ts.len(), 4000);
-        if hi <= lo + 1 {
+        let (Some(m), Some((lo, hi))) = (ts.response(ax), window) else {
+            continue;
+        };
+        if hi <= lo + 1 || !modelled(ax) {
             continue;
         }
         let accel = ts.response_kind == Some(identify::timeseries::ResponseKind::Acceleration);
@@ -265,8 +294,8 @@ fn report(
         };
         body.push_str(&format!(
             "<p>Held-out part of <code>{}</code>, axis {ax}: the stretch where the response is \
-             (until it has decayed to 2 % of its peak), and below it what each twin leaves \
-             unexplained.</p>",
+             (until the strongest axis has decayed to 2 % of its peak), and below it what each \
+             twin leaves unexplained.</p>",
             esc(&ts.source)
         ));
         body.push_str(&figure(&Figure {

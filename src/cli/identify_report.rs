@@ -25,9 +25,24 @@ fn modal_constant(mode: &Mode, num: &ModeNum) -> f64 {
     a.norm() * if a.re < 0.0 { -1.0 } else { 1.0 }
 }
 
-fn stiffness_text(mode: &Mode, num: &ModeNum) -> (String, String) {
+/// A channel whose modal constant is below this share of the mode's largest one hardly
+/// sees the mode: its stiffness and mass there are not shown (they would be huge and
+/// carry the fit's noise).
+const WEAK_SHARE: f64 = 0.05;
+
+/// The largest |modal constant| of mode `k` over the model's channels.
+fn largest_constant(model: &ModalModel, k: usize) -> f64 {
+    model
+        .channels
+        .iter()
+        .filter_map(|c| c.num.get(k))
+        .map(|n| modal_constant(&model.modes[k], n).abs())
+        .fold(0.0, f64::max)
+}
+
+fn stiffness_text(mode: &Mode, num: &ModeNum, largest: f64) -> (String, String) {
     let a = modal_constant(mode, num);
-    if a == 0.0 || !a.is_finite() {
+    if a == 0.0 || !a.is_finite() || a.abs() < WEAK_SHARE * largest {
         return ("—".into(), "—".into());
     }
     let k = mode.wn * mode.wn / a;
@@ -66,11 +81,11 @@ fn modes_table(model: &ModalModel) -> String {
             m.freq_hz(),
             100.0 * m.zeta
         );
+        let largest = largest_constant(model, k);
         for c in &model.channels {
-            let (ks, ms) = c
-                .num
-                .get(k)
-                .map_or(("—".into(), "—".into()), |n| stiffness_text(m, n));
+            let (ks, ms) = c.num.get(k).map_or(("—".into(), "—".into()), |n| {
+                stiffness_text(m, n, largest)
+            });
             let _ = write!(b, "<td>{ks}</td><td>{ms}</td>");
         }
         b.push_str("</tr>");
@@ -138,10 +153,16 @@ fn modes_summary(twin: &Twin) -> String {
                     let m = p.model.modes.get(k)?;
                     let n = p.model.channel(*c)?.num.get(k)?;
                     let a = modal_constant(m, n);
-                    (a != 0.0).then(|| m.wn * m.wn / a * 1e-6)
+                    let weak = a.abs() < WEAK_SHARE * largest_constant(&p.model, k);
+                    (a != 0.0 && !weak).then(|| m.wn * m.wn / a * 1e-6)
                 })
                 .collect();
-            let _ = write!(b, "<td>{:.3}</td>", median(&mut ks));
+            // shown where the mode is seen in this channel at most poses
+            if 2 * ks.len() > twin.poses.len() {
+                let _ = write!(b, "<td>{:.3}</td>", median(&mut ks));
+            } else {
+                b.push_str("<td>—</td>");
+            }
         }
         b.push_str("</tr>");
     }
@@ -361,7 +382,9 @@ pub fn identify_report(twin: &Twin, diagrams: &[StabilizationDiagram]) -> String
             "<h2>Identified modes</h2><p>Over all {} poses (the modes of each pose, with modal \
              stiffness and mass per channel, are in its section below). k = ωn²/A and \
              m = 1/A, A the mode's modal constant in that channel: the single-degree-of-freedom \
-             equivalent seen there; a negative value means the channel responds in antiphase.</p>{}",
+             equivalent seen there; a negative value means the channel responds in antiphase; \
+             — means the mode hardly moves that channel (modal constant below 5 % of the mode's \
+             largest).</p>{}",
             twin.poses.len(),
             modes_summary(twin)
         );
