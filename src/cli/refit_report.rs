@@ -269,6 +269,11 @@ fn response_section(b: &mut String, old: &Twin, new: &Twin, series: &[TimeSeries
         esc(&ts.source),
         ts.len().min(MAX_SAMPLES_SHOWN)
     );
+    let unit = if ts.response_kind == Some(identify::timeseries::ResponseKind::Acceleration) {
+        "acceleration [m/s²]"
+    } else {
+        "displacement [m]"
+    };
     for ((axis, meas, sb), (_, _, sa)) in before.iter().zip(&after) {
         let n = meas.len().min(MAX_SAMPLES_SHOWN);
         let t: Vec<f64> = (0..n).map(|i| i as f64 * ts.dt).collect();
@@ -277,7 +282,7 @@ fn response_section(b: &mut String, old: &Twin, new: &Twin, series: &[TimeSeries
         b.push_str(&plot(
             &format!("response {axis}: measured and twin after the refit"),
             "time [s]",
-            "response",
+            unit,
             &[
                 Series {
                     label: "measured",
@@ -299,7 +304,7 @@ fn response_section(b: &mut String, old: &Twin, new: &Twin, series: &[TimeSeries
         b.push_str(&plot(
             &format!("response {axis}: residual (measured − twin)"),
             "time [s]",
-            "residual",
+            unit,
             &[
                 Series {
                     label: "before",
