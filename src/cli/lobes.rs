@@ -65,7 +65,9 @@ pub struct Args {
     /// Semi-discretisation steps per engaged tooth period.
     #[arg(long, default_value_t = 40)]
     pub sd_steps: usize,
-    /// Also write an SVG plot of the lobes here.
+    /// Also write an SVG plot of the lobes here: both methods, the stable region (below
+    /// both limits) shaded, the cut's data in the title; a line breaks where a new lobe
+    /// begins (an unstable island's tip: the limit drops there).
     #[arg(long)]
     pub plot: Option<PathBuf>,
 }
