@@ -527,7 +527,11 @@ pub fn identify_report(twin: &Twin, diagrams: &[StabilizationDiagram]) -> String
             b,
             "<h3>Modes at pose {}</h3>{}<p>Fit per channel: {}.</p>",
             i + 1,
-            modes_table(&p.model),
+            if twin.poses.len() > 1 {
+                modes_table(&p.model)
+            } else {
+                "<p>(the table above)</p>".into()
+            },
             p.fit.iter().map(fit_text).collect::<Vec<_>>().join("; ")
         );
         pose_frfs(&mut b, i, p);
