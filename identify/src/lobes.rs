@@ -108,6 +108,17 @@ pub struct SdOptions {
     pub helix_slices: usize,
 }
 
+/// Depths probed evenly below a semi-discretisation limit in the search for unstable
+/// islands (see `SdProblem::limit_guarded`).
+const ISLAND_PROBES: usize = 8;
+
+/// A hump of the spectral radius below the limit is refined (is it an island?) when it
+/// reaches this: lower humps are far from instability.
+const ISLAND_RHO_MIN: f64 = 0.99;
+
+/// Resolution of the island search, relative to the limit.
+const ISLAND_DEPTH_TOL: f64 = 0.01;
+
 impl Default for SdOptions {
     fn default() -> Self {
         SdOptions {
@@ -853,24 +864,119 @@ impl SdProblem {
         })
     }
 
-    /// [`SdProblem::limit`], then probes at 80 % and 50 % of the limit: an unstable probe
-    /// (a lower lobe, e.g. a flip lobe, that the ZOA guess jumped over) restarts the
-    /// search below it. A guard, not a proof: narrow unstable islands can still hide.
+    /// [`SdProblem::limit`], then a search for unstable islands below the limit (a lower
+    /// lobe, e.g. a flip lobe or the tip of a tongue, that the bracketing from the ZOA
+    /// guess jumped over): ρ at [`ISLAND_PROBES`] depths evenly below the limit; at every
+    /// local maximum of ρ there (and at an unstable probe) the maximum of ρ is refined by
+    /// golden section, and if it reaches 1 the limit is the first crossing below it. Near
+    /// a tongue's tip the island is thin in depth but ρ's hump around it is wide, so the
+    /// probes see the hump; the earlier guard (probes at 80 % and 50 %) missed such
+    /// islands for some speeds next to the tip, and the limit jumped late.
     fn limit_guarded(&self, rpm: f64, guess: f64) -> Result<(f64, Floquet)> {
         let (mut ap, mut fl) = self.limit(rpm, guess)?;
-        'outer: for _ in 0..4 {
+        let rho = |a: f64| -> Result<f64> { Ok(self.floquet(rpm, a)?.spectral_radius) };
+        'outer: for _ in 0..6 {
             if !ap.is_finite() || ap <= 0.0 {
                 break;
             }
-            for frac in [0.8, 0.5] {
-                if self.floquet(rpm, frac * ap)?.spectral_radius >= 1.0 {
-                    (ap, fl) = self.limit(rpm, frac * ap)?;
-                    continue 'outer;
+            let n = ISLAND_PROBES;
+            let depths: Vec<f64> = (0..=n + 1)
+                .map(|j| ap * j as f64 / (n + 1) as f64)
+                .collect();
+            let mut r = Vec::with_capacity(n + 2);
+            r.push(rho(0.0)?);
+            for &d in &depths[1..=n] {
+                r.push(rho(d)?);
+            }
+            // ρ at the limit itself (≥ 1, the upper end of its bracket)
+            r.push(fl.spectral_radius);
+            for j in 1..=n {
+                // a hump, or the probe next to the limit, where a hump may sit between
+                // it and the limit (ρ dips after an island, then rises to the limit)
+                let hump = r[j] >= r[j - 1] && (r[j] >= r[j + 1] || j == n);
+                if !(r[j] >= 1.0 || (hump && r[j] > ISLAND_RHO_MIN)) {
+                    continue;
+                }
+                // golden section for the maximum of ρ in (depths[j-1], depths[j+1])
+                let (mut a, mut b) = (depths[j - 1], depths[j + 1]);
+                let (mut best_d, mut best_r) = (depths[j], r[j]);
+                let g = 0.5 * (5f64.sqrt() - 1.0);
+                let (mut c, mut d) = (b - g * (b - a), a + g * (b - a));
+                let (mut rc, mut rd) = (rho(c)?, rho(d)?);
+                for _ in 0..30 {
+                    // an island thinner than this near its tip shifts the tip by a hair
+                    if best_r >= 1.0 || (b - a) <= ISLAND_DEPTH_TOL * ap {
+                        break;
+                    }
+                    if rc > best_r {
+                        (best_d, best_r) = (c, rc);
+                    }
+                    if rd > best_r {
+                        (best_d, best_r) = (d, rd);
+                    }
+                    if best_r >= 1.0 {
+                        break;
+                    }
+                    if rc >= rd {
+                        (b, d, rd) = (d, c, rc);
+                        c = b - g * (b - a);
+                        rc = rho(c)?;
+                    } else {
+                        (a, c, rc) = (c, d, rd);
+                        d = a + g * (b - a);
+                        rd = rho(d)?;
+                    }
+                }
+                if best_r >= 1.0 {
+                    // the first crossing between the last stable probe below and it
+                    let lo = if r[j - 1] < 1.0 { depths[j - 1] } else { 0.0 };
+                    let (a2, f2) = self.crossing(rpm, lo, best_d)?;
+                    if a2 < ap * (1.0 - ISLAND_DEPTH_TOL) {
+                        (ap, fl) = (a2, f2);
+                        continue 'outer;
+                    }
                 }
             }
             break;
         }
         Ok((ap, fl))
+    }
+
+    /// The first depth in `(lo, hi]` where ρ reaches 1, with ρ(`lo`) < 1 ≤ ρ(`hi`), by
+    /// Illinois regula falsi on ln ρ (a crossing of a bracket, never outside it).
+    fn crossing(&self, rpm: f64, lo: f64, hi: f64) -> Result<(f64, Floquet)> {
+        let f = |ap: f64| -> Result<(f64, Floquet)> {
+            let fl = self.floquet(rpm, ap)?;
+            Ok((fl.spectral_radius.max(1e-300).ln(), fl))
+        };
+        let (mut lo, mut hi) = (lo, hi);
+        let (mut flo, _) = f(lo)?;
+        let (mut fhi, mut fl_hi) = f(hi)?;
+        let mut side = 0i8;
+        for _ in 0..60 {
+            if hi - lo <= self.opts.rel_tol * hi {
+                break;
+            }
+            let mut c = (lo * fhi - hi * flo) / (fhi - flo);
+            if !(c > lo && c < hi) {
+                c = 0.5 * (lo + hi);
+            }
+            let (fc, flc) = f(c)?;
+            if fc < 0.0 {
+                (lo, flo) = (c, fc);
+                if side == -1 {
+                    fhi *= 0.5;
+                }
+                side = -1;
+            } else {
+                (hi, fhi, fl_hi) = (c, fc, flc);
+                if side == 1 {
+                    flo *= 0.5;
+                }
+                side = 1;
+            }
+        }
+        Ok((0.5 * (lo + hi), fl_hi))
     }
 
     /// The smallest unstable depth near `guess` by bracketing and Illinois on ln ρ.
@@ -1003,7 +1109,9 @@ pub fn stable_sd(
 /// Semi-discretisation stability lobes at the requested spindle speeds (parallel over
 /// speeds). Each limit is the first depth where the spectral radius reaches 1, found by
 /// bracketing from the ZOA limit and regula falsi on `ln ρ(ap)` to `opts.rel_tol`, then
-/// checked for instability at 80 % and 50 % of it (a lower lobe restarts the search).
+/// searched below for unstable islands (ρ at 8 depths under the limit, each hump of ρ
+/// above 0.99 refined by golden section; an island found gives the limit at its lower
+/// edge, and the search repeats below it).
 /// The chatter frequency is the alias of the critical multiplier's phase closest to the
 /// ZOA chatter frequency (a flip multiplier gives an odd multiple of half the tooth
 /// passing frequency).

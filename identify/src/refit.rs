@@ -987,10 +987,10 @@ pub fn refit(
                              previous modes are kept"
                         .into(),
                     Some(c) => format!(
-                        "no update of the excited modes {:?} lowers the held-out misfit \
+                        "no update of the excited modes {} lowers the held-out misfit \
                          ({c:.3} σ) by {:.0} %, significantly where the mode resonates and \
                          within its identity bounds: the previous modes are kept",
-                        held.candidates,
+                        mode_numbers(&held.candidates),
                         100.0 * MIN_MISFIT_GAIN
                     ),
                 };
@@ -1000,7 +1000,8 @@ pub fn refit(
                 return Ok((out, report));
             };
             held.note = format!(
-                "modes {free:?} updated: held-out misfit {:.3} σ -> {:.3} σ",
+                "modes {} updated: held-out misfit {:.3} σ -> {:.3} σ",
+                mode_numbers(&free),
                 held.chi_before.unwrap_or(f64::NAN),
                 held.chi_after.unwrap_or(f64::NAN)
             );
@@ -1040,8 +1041,9 @@ pub fn refit(
                             } else {
                                 format!(
                                     "; the output-error refinement ends on its trust region's \
-                                     edge for modes {edge:?} (the records ask for more than a \
-                                     refinement): not used, the modal update stands"
+                                     edge for modes {} (the records ask for more than a \
+                                     refinement): not used, the modal update stands",
+                                    mode_numbers(&edge)
                                 )
                             };
                         }
@@ -1180,10 +1182,29 @@ fn push_history(
     });
 }
 
+/// Mode indices (from 0, as in the twin's `modes`) as people number them, from 1:
+/// `[0, 2]` → `1 and 3`.
+pub fn mode_numbers(ks: &[usize]) -> String {
+    let n: Vec<String> = ks.iter().map(|k| (k + 1).to_string()).collect();
+    match n.as_slice() {
+        [] => "(none)".into(),
+        [a] => a.clone(),
+        [rest @ .., last] => format!("{} and {last}", rest.join(", ")),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::model::{ChannelModel, Mode, ModeNum};
+
+    #[test]
+    fn mode_numbers_count_from_one() {
+        assert_eq!(mode_numbers(&[]), "(none)");
+        assert_eq!(mode_numbers(&[0]), "1");
+        assert_eq!(mode_numbers(&[0, 2]), "1 and 3");
+        assert_eq!(mode_numbers(&[1, 4, 8]), "2, 5 and 9");
+    }
 
     fn three_modes() -> ModalModel {
         let modes = vec![

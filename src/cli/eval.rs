@@ -116,9 +116,9 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
     let frf: Frf = model.frf(&freqs);
     let format = super::frf_io::write_frf(&a.out, &frf, a.uff_binary)?;
     out.say(format!(
-        "FRF of {} channels at {:?} ({} lines {:.1}-{:.1} Hz, {}) -> {} ({format})",
+        "FRF of {} channels at {} ({} lines {:.1}-{:.1} Hz, {}) -> {} ({format})",
         frf.channels.len(),
-        a.at,
+        identify::axis::PoseText(a.at),
         freqs.len(),
         freqs[0],
         freqs[freqs.len() - 1],

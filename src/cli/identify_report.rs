@@ -1,14 +1,352 @@
-//! The HTML report of `mtwin identify`: FRF measured vs model with coherence, the
-//! stabilization diagram, modes across the workspace, leave-one-pose-out accuracy.
+//! The HTML report of `mtwin identify`: the identified modes (frequency, damping, modal
+//! stiffness and mass per channel), the fit explained, every pose's FRF (magnitude, phase,
+//! coherence; measured vs model) with its stabilization diagram over the FRF sum, small
+//! multiples of all poses, the modes across the workspace and leave-one-pose-out accuracy.
+//! Modes and poses are numbered from 1.
 
-use crate::report::{esc, page, plot, Scale, Series};
+use crate::report::{esc, figure, page, stabilization_figure, thin, Figure, Panel, Scale, Series};
+use identify::axis::PoseText;
+use identify::model::{ModalModel, Mode, ModeNum};
 use identify::stabilization::StabilizationDiagram;
-use identify::twin::Twin;
+use identify::twin::{ChannelFit, PoseModel, Twin};
 use std::f64::consts::PI;
 use std::fmt::Write as _;
 
-/// Poses shown in full (FRF and diagram); the rest are in the tables and the map.
-const MAX_POSES_SHOWN: usize = 4;
+/// Most points drawn per line (the FRF is thinned to the extremes of log-spaced buckets,
+/// so no resonance peak is lost).
+const MAX_POINTS: usize = 400;
+
+/// Modal constant `A` of one mode in one channel (m/N·rad²/s²; for a real mode the
+/// numerator `b0`): the magnitude of `b1 p + b0` at the pole, signed by its real part.
+/// Modal mass `1/A`, modal stiffness `ωn²/A` (the single-degree-of-freedom equivalent
+/// seen in that channel; negative = the channel responds in antiphase).
+fn modal_constant(mode: &Mode, num: &ModeNum) -> f64 {
+    let a = mode.pole() * num.b1 + num.b0;
+    a.norm() * if a.re < 0.0 { -1.0 } else { 1.0 }
+}
+
+/// A channel whose modal constant is below this share of the mode's largest one hardly
+/// sees the mode: its stiffness and mass there are not shown (they would be huge and
+/// carry the fit's noise).
+const WEAK_SHARE: f64 = 0.05;
+
+/// The largest |modal constant| of mode `k` over the model's channels.
+fn largest_constant(model: &ModalModel, k: usize) -> f64 {
+    model
+        .channels
+        .iter()
+        .filter_map(|c| c.num.get(k))
+        .map(|n| modal_constant(&model.modes[k], n).abs())
+        .fold(0.0, f64::max)
+}
+
+fn stiffness_text(mode: &Mode, num: &ModeNum, largest: f64) -> (String, String) {
+    let a = modal_constant(mode, num);
+    if a == 0.0 || !a.is_finite() || a.abs() < WEAK_SHARE * largest {
+        return ("—".into(), "—".into());
+    }
+    let k = mode.wn * mode.wn / a;
+    (format!("{:.3}", k * 1e-6), format!("{:.3}", 1.0 / a))
+}
+
+/// A channel's fit: against the measured FRF, what the noise allows, and the estimate
+/// against the noise-free FRF.
+fn fit_text(f: &ChannelFit) -> String {
+    let opt = |v: Option<f64>| v.map_or("—".to_string(), |v| format!("{v:.1} %"));
+    format!(
+        "<b>{}</b> {:.1} % <small>(noise allows {}; noise-free est. {})</small>",
+        f.channel,
+        f.fit_pct,
+        opt(f.noise_limit_pct),
+        opt(f.noise_free_fit_pct)
+    )
+}
+
+/// The modes of one pose: frequency, damping, modal stiffness and mass per channel.
+fn modes_table(model: &ModalModel) -> String {
+    let mut b = String::from("<table><tr><th>mode</th><th>f [Hz]</th><th>ζ [%]</th>");
+    for c in &model.channels {
+        let _ = write!(
+            b,
+            "<th>k<sub>{0}</sub> [N/µm]</th><th>m<sub>{0}</sub> [kg]</th>",
+            c.channel
+        );
+    }
+    b.push_str("</tr>");
+    for (k, m) in model.modes.iter().enumerate() {
+        let _ = write!(
+            b,
+            "<tr><td>{}</td><td>{:.1}</td><td>{:.2}</td>",
+            k + 1,
+            m.freq_hz(),
+            100.0 * m.zeta
+        );
+        let largest = largest_constant(model, k);
+        for c in &model.channels {
+            let (ks, ms) = c.num.get(k).map_or(("—".into(), "—".into()), |n| {
+                stiffness_text(m, n, largest)
+            });
+            let _ = write!(b, "<td>{ks}</td><td>{ms}</td>");
+        }
+        b.push_str("</tr>");
+    }
+    b.push_str("</table>");
+    b
+}
+
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(f64::total_cmp);
+    if v.is_empty() {
+        f64::NAN
+    } else {
+        v[v.len() / 2]
+    }
+}
+
+/// Modes over all poses: median and range of frequency and damping, median modal
+/// stiffness of the direct channels.
+fn modes_summary(twin: &Twin) -> String {
+    let n_modes = twin
+        .poses
+        .iter()
+        .map(|p| p.model.modes.len())
+        .max()
+        .unwrap_or(0);
+    let direct: Vec<_> = twin
+        .channels
+        .iter()
+        .filter(|c| c.output == c.input)
+        .copied()
+        .collect();
+    let mut b = String::from(
+        "<table><tr><th>mode</th><th>f [Hz] median</th><th>f range over the poses [Hz]</th>\
+         <th>ζ [%] median</th><th>ζ range [%]</th>",
+    );
+    for c in &direct {
+        let _ = write!(b, "<th>k<sub>{c}</sub> median [N/µm]</th>");
+    }
+    b.push_str("</tr>");
+    for k in 0..n_modes {
+        let ms: Vec<&Mode> = twin
+            .poses
+            .iter()
+            .filter_map(|p| p.model.modes.get(k))
+            .collect();
+        let mut f: Vec<f64> = ms.iter().map(|m| m.freq_hz()).collect();
+        let mut z: Vec<f64> = ms.iter().map(|m| 100.0 * m.zeta).collect();
+        let (fmed, zmed) = (median(&mut f), median(&mut z));
+        let _ = write!(
+            b,
+            "<tr><td>{}</td><td>{fmed:.1}</td><td>{:.1} – {:.1}</td><td>{zmed:.2}</td>\
+             <td>{:.2} – {:.2}</td>",
+            k + 1,
+            f.first().copied().unwrap_or(f64::NAN),
+            f.last().copied().unwrap_or(f64::NAN),
+            z.first().copied().unwrap_or(f64::NAN),
+            z.last().copied().unwrap_or(f64::NAN),
+        );
+        for c in &direct {
+            let mut ks: Vec<f64> = twin
+                .poses
+                .iter()
+                .filter_map(|p| {
+                    let m = p.model.modes.get(k)?;
+                    let n = p.model.channel(*c)?.num.get(k)?;
+                    let a = modal_constant(m, n);
+                    let weak = a.abs() < WEAK_SHARE * largest_constant(&p.model, k);
+                    (a != 0.0 && !weak).then(|| m.wn * m.wn / a * 1e-6)
+                })
+                .collect();
+            // shown where the mode is seen in this channel at most poses
+            if 2 * ks.len() > twin.poses.len() {
+                let _ = write!(b, "<td>{:.3}</td>", median(&mut ks));
+            } else {
+                b.push_str("<td>—</td>");
+            }
+        }
+        b.push_str("</tr>");
+    }
+    b.push_str("</table>");
+    b
+}
+
+/// The FRF lines of a pose within its fitted band.
+fn band_lines(p: &PoseModel) -> Vec<usize> {
+    let f = &p.frf.freqs_hz;
+    (0..f.len())
+        .filter(|&k| f[k] >= p.band_hz[0] && f[k] <= p.band_hz[1] && f[k] > 0.0)
+        .collect()
+}
+
+fn xscale(band: [f64; 2]) -> Scale {
+    if band[0] > 0.0 && band[1] / band[0] >= 8.0 {
+        Scale::Log
+    } else {
+        Scale::Lin
+    }
+}
+
+/// Magnitude [µm/N], phase and coherence of every channel of a pose: measured vs model.
+fn pose_frfs(b: &mut String, i: usize, p: &PoseModel) {
+    let keep = band_lines(p);
+    let f = &p.frf.freqs_hz;
+    let fx_all: Vec<f64> = keep.iter().map(|&k| f[k]).collect();
+    for ch in &p.frf.channels {
+        let Some(ci) = p.model.channel_index(ch.channel) else {
+            continue;
+        };
+        let meas_all: Vec<f64> = keep.iter().map(|&k| ch.h[k].norm() * 1e6).collect();
+        let sel = thin(&fx_all, &meas_all, MAX_POINTS);
+        let fx: Vec<f64> = sel.iter().map(|&j| fx_all[j]).collect();
+        let meas_mag: Vec<f64> = sel.iter().map(|&j| meas_all[j]).collect();
+        let meas_ph: Vec<f64> = sel
+            .iter()
+            .map(|&j| ch.h[keep[j]].arg() * 180.0 / PI)
+            .collect();
+        let model: Vec<_> = fx.iter().map(|&x| p.model.eval_hz(ci, x)).collect();
+        let mod_mag: Vec<f64> = model.iter().map(|v| v.norm() * 1e6).collect();
+        let mod_ph: Vec<f64> = model.iter().map(|v| v.arg() * 180.0 / PI).collect();
+        let mag = [
+            Series {
+                label: "measured",
+                x: &fx,
+                y: &meas_mag,
+                color: 0,
+                points: false,
+            },
+            Series {
+                label: "model",
+                x: &fx,
+                y: &mod_mag,
+                color: 1,
+                points: false,
+            },
+        ];
+        let ph = [
+            Series {
+                label: "",
+                x: &fx,
+                y: &meas_ph,
+                color: 0,
+                points: true,
+            },
+            Series {
+                label: "",
+                x: &fx,
+                y: &mod_ph,
+                color: 1,
+                points: false,
+            },
+        ];
+        let coh: Vec<f64> = ch
+            .coherence
+            .as_ref()
+            .map(|g| sel.iter().map(|&j| g[keep[j]]).collect())
+            .unwrap_or_default();
+        let coh_s = [Series {
+            label: "",
+            x: &fx,
+            y: &coh,
+            color: 2,
+            points: false,
+        }];
+        let mut panels = vec![
+            Panel::new("|H| [µm/N]", Scale::Log, &mag, 250),
+            Panel {
+                yrange: Some((-190.0, 190.0)),
+                ..Panel::new("phase [°]", Scale::Lin, &ph, 140)
+            },
+        ];
+        if !coh.is_empty() {
+            panels.push(Panel {
+                yrange: Some((0.0, 1.05)),
+                ..Panel::new("coherence", Scale::Lin, &coh_s, 100)
+            });
+        }
+        let fit = p
+            .fit
+            .iter()
+            .find(|x| x.channel == ch.channel)
+            .map_or(0.0, |x| x.fit_pct);
+        let title = format!(
+            "Pose {}: {} receptance, measured vs model (fit {fit:.1} %)",
+            i + 1,
+            ch.channel
+        );
+        let _ = writeln!(
+            b,
+            "{}",
+            figure(&Figure {
+                title: &title,
+                xlabel: "frequency [Hz]",
+                xscale: xscale(p.band_hz),
+                xrange: Some((
+                    p.band_hz[0].max(fx.first().copied().unwrap_or(1.0)),
+                    p.band_hz[1]
+                )),
+                width: 760,
+                panels: &panels,
+            })
+        );
+    }
+}
+
+/// Small multiples: the sum of the measured |H| over the channels and the model's, at
+/// every pose, each linking to the pose's section.
+fn small_multiples(twin: &Twin) -> String {
+    let mut b = String::from("<div class=\"grid\">");
+    for (i, p) in twin.poses.iter().enumerate() {
+        let keep = band_lines(p);
+        let fx_all: Vec<f64> = keep.iter().map(|&k| p.frf.freqs_hz[k]).collect();
+        let meas_all: Vec<f64> = keep
+            .iter()
+            .map(|&k| p.frf.channels.iter().map(|c| c.h[k].norm()).sum::<f64>() * 1e6)
+            .collect();
+        let sel = thin(&fx_all, &meas_all, 250);
+        let fx: Vec<f64> = sel.iter().map(|&j| fx_all[j]).collect();
+        let meas: Vec<f64> = sel.iter().map(|&j| meas_all[j]).collect();
+        let model: Vec<f64> = fx
+            .iter()
+            .map(|&f| {
+                p.frf
+                    .channels
+                    .iter()
+                    .filter_map(|c| p.model.channel_index(c.channel))
+                    .map(|ci| p.model.eval_hz(ci, f).norm())
+                    .sum::<f64>()
+                    * 1e6
+            })
+            .collect();
+        let s = [
+            Series {
+                label: "",
+                x: &fx,
+                y: &meas,
+                color: 0,
+                points: false,
+            },
+            Series {
+                label: "",
+                x: &fx,
+                y: &model,
+                color: 1,
+                points: false,
+            },
+        ];
+        let title = format!("{} {}", i + 1, PoseText(p.pose));
+        let svg = figure(&Figure {
+            title: &title,
+            xlabel: "Hz",
+            xscale: xscale(p.band_hz),
+            xrange: None,
+            width: 320,
+            panels: &[Panel::new("Σ|H| [µm/N]", Scale::Log, &s, 170)],
+        });
+        let _ = write!(b, "<a href=\"#pose-{}\">{svg}</a>", i + 1);
+    }
+    b.push_str("</div>");
+    b
+}
 
 /// Builds the report page.
 pub fn identify_report(twin: &Twin, diagrams: &[StabilizationDiagram]) -> String {
@@ -16,8 +354,9 @@ pub fn identify_report(twin: &Twin, diagrams: &[StabilizationDiagram]) -> String
     let _ = writeln!(
         b,
         "<p>Twin <code>{}</code>: {} pose(s), channels {}, interpolation <b>{}</b>. \
-         Receptance in m/N; the model is the one stored in the twin (exponential-window \
-         damping removed), the measured FRF is the estimate it was fitted to.</p>",
+         Receptance in µm/N; the model is the one stored in the twin (exponential-window \
+         damping removed), the measured FRF is the estimate it was fitted to. Modes and \
+         poses are numbered from 1.</p>",
         esc(&twin.name),
         twin.poses.len(),
         twin.channels
@@ -27,20 +366,47 @@ pub fn identify_report(twin: &Twin, diagrams: &[StabilizationDiagram]) -> String
             .join(", "),
         twin.interpolation.method
     );
-    // summary table
     let _ = writeln!(
         b,
-        "<h2>Poses</h2><table><tr><th>#</th><th>x [m]</th><th>y [m]</th><th>z [m]</th>\
-         <th>modes</th><th>order</th><th>band [Hz]</th><th>fit per channel</th></tr>"
+        "<p><b>Reading the fit.</b> The fit of a channel is measured against the <i>measured</i> \
+         FRF, which carries the measurement noise: a model that matched the structure exactly \
+         would still score below 100 %, at most what the noise allows (<i>noise allows</i>). \
+         <i>noise-free est.</i> estimates the model's fit to the noise-free FRF (the misfit's \
+         power less the noise's); it is the number to compare with a fit against a known \
+         truth. A channel with little signal (often a cross channel, xy or yx) can fit its \
+         measured FRF poorly even when the model is right: compare it with its noise limit.</p>"
+    );
+    if twin.poses.len() > 1 {
+        let _ = writeln!(
+            b,
+            "<h2>Identified modes</h2><p>Over all {} poses (the modes of each pose, with modal \
+             stiffness and mass per channel, are in its section below). k = ωn²/A and \
+             m = 1/A, A the mode's modal constant in that channel: the single-degree-of-freedom \
+             equivalent seen there; a negative value means the channel responds in antiphase; \
+             — means the mode hardly moves that channel (modal constant below 5 % of the mode's \
+             largest).</p>{}",
+            twin.poses.len(),
+            modes_summary(twin)
+        );
+    } else if let Some(p) = twin.poses.first() {
+        let _ = writeln!(b, "<h2>Identified modes</h2>{}", modes_table(&p.model));
+    }
+    let _ = writeln!(
+        b,
+        "<h2>Poses</h2><p>Per channel: fit to the measured FRF, and under it in grey the \
+         estimated fit to the noise-free FRF.</p><table><tr><th>pose</th><th>position</th>\
+         <th>modes</th><th>order</th><th>band [Hz]</th>{}</tr>",
+        twin.channels
+            .iter()
+            .map(|c| format!("<th>{c} [%]</th>"))
+            .collect::<String>()
     );
     for (i, p) in twin.poses.iter().enumerate() {
         let _ = writeln!(
             b,
-            "<tr><td>{i}</td><td>{:.3}</td><td>{:.3}</td><td>{:.3}</td><td>{}</td><td>{}</td>\
-             <td>{:.0}–{:.0}</td><td>{}</td></tr>",
-            p.pose[0],
-            p.pose[1],
-            p.pose[2],
+            "<tr><td><a href=\"#pose-{n}\">{n}</a></td><td>{}</td><td>{}</td><td>{}</td>\
+             <td>{:.0}–{:.0}</td>{}</tr>",
+            PoseText(p.pose),
             p.order.modes,
             if p.order.automatic {
                 "automatic"
@@ -49,14 +415,30 @@ pub fn identify_report(twin: &Twin, diagrams: &[StabilizationDiagram]) -> String
             },
             p.band_hz[0],
             p.band_hz[1],
-            p.fit
+            twin.channels
                 .iter()
-                .map(|f| format!("{} {:.2} %", f.channel, f.fit_pct))
-                .collect::<Vec<_>>()
-                .join(", ")
+                .map(|c| p.fit.iter().find(|f| f.channel == *c).map_or(
+                    "<td>—</td>".to_string(),
+                    |f| format!(
+                        "<td>{:.1}<br><small>{}</small></td>",
+                        f.fit_pct,
+                        f.noise_free_fit_pct
+                            .map_or("—".to_string(), |v| format!("{v:.1}"))
+                    )
+                ))
+                .collect::<String>(),
+            n = i + 1,
         );
     }
     let _ = writeln!(b, "</table>");
+    if twin.poses.len() > 1 {
+        let _ = writeln!(
+            b,
+            "<h2>All poses at a glance</h2><p>Sum of |H| over the channels, measured (black) and \
+             model (red); click a pose for its FRFs, modes and stabilization diagram.</p>{}",
+            small_multiples(twin)
+        );
+    }
     let loo = &twin.interpolation.leave_one_out;
     if !loo.is_empty() {
         let _ = writeln!(
@@ -68,13 +450,11 @@ pub fn identify_report(twin: &Twin, diagrams: &[StabilizationDiagram]) -> String
         for e in loo {
             let _ = writeln!(
                 b,
-                "<tr><td>({:.3}, {:.3}, {:.3})</td><td>{}</td></tr>",
-                e.pose[0],
-                e.pose[1],
-                e.pose[2],
+                "<tr><td>{}</td><td>{}</td></tr>",
+                PoseText(e.pose),
                 e.fit
                     .iter()
-                    .map(|f| format!("{} {:.2} %", f.channel, f.fit_pct))
+                    .map(|f| format!("{} {:.1} %", f.channel, f.fit_pct))
                     .collect::<Vec<_>>()
                     .join(", ")
             );
@@ -83,7 +463,7 @@ pub fn identify_report(twin: &Twin, diagrams: &[StabilizationDiagram]) -> String
     }
     // modes across the workspace
     if twin.poses.len() > 1 {
-        let idx: Vec<f64> = (0..twin.poses.len()).map(|i| i as f64).collect();
+        let idx: Vec<f64> = (1..=twin.poses.len()).map(|i| i as f64).collect();
         let n_modes = twin.poses[0].model.modes.len();
         let freqs: Vec<Vec<f64>> = (0..n_modes)
             .map(|k| {
@@ -107,153 +487,101 @@ pub fn identify_report(twin: &Twin, diagrams: &[StabilizationDiagram]) -> String
             b,
             "<h2>Modes across the workspace</h2><p>Natural frequency of each tracked mode \
              at every measured pose (pose numbers as in the table).</p>{}",
-            plot(
-                "Tracked modes",
-                "pose #",
-                "natural frequency [Hz]",
-                &series,
-                Scale::Log
-            )
+            figure(&Figure {
+                title: "Tracked modes",
+                xlabel: "pose",
+                xscale: Scale::Lin,
+                xrange: None,
+                width: 760,
+                panels: &[Panel::new(
+                    "natural frequency [Hz]",
+                    Scale::Log,
+                    &series,
+                    330
+                )],
+            })
         );
     }
-    for (i, p) in twin.poses.iter().enumerate().take(MAX_POSES_SHOWN) {
+    let _ = writeln!(
+        b,
+        "<h2>Every pose</h2><p>Open a pose for its modes, its FRFs (magnitude, phase, \
+         coherence) and its stabilization diagram.</p>"
+    );
+    for (i, p) in twin.poses.iter().enumerate() {
+        let fits = p
+            .fit
+            .iter()
+            .map(|f| format!("{} {:.1} %", f.channel, f.fit_pct))
+            .collect::<Vec<_>>()
+            .join(", ");
         let _ = writeln!(
             b,
-            "<h2>Pose {i}: ({:.3}, {:.3}, {:.3}) m</h2>",
-            p.pose[0], p.pose[1], p.pose[2]
+            "<details id=\"pose-{n}\"{open}><summary><b>Pose {n}: {}</b> — {} modes; fit {}</summary>",
+            PoseText(p.pose),
+            p.model.modes.len(),
+            fits,
+            n = i + 1,
+            open = if i == 0 { " open" } else { "" }
         );
-        for ch in &p.frf.channels {
-            let Some(ci) = p.model.channel_index(ch.channel) else {
-                continue;
-            };
-            let f = &p.frf.freqs_hz;
-            let keep: Vec<usize> = (0..f.len())
-                .filter(|&k| f[k] >= p.band_hz[0] && f[k] <= p.band_hz[1] && f[k] > 0.0)
-                .collect();
-            let fx: Vec<f64> = keep.iter().map(|&k| f[k]).collect();
-            let meas_mag: Vec<f64> = keep.iter().map(|&k| ch.h[k].norm()).collect();
-            let meas_ph: Vec<f64> = keep.iter().map(|&k| ch.h[k].arg() * 180.0 / PI).collect();
-            let model: Vec<_> = fx.iter().map(|&x| p.model.eval_hz(ci, x)).collect();
-            let mod_mag: Vec<f64> = model.iter().map(|v| v.norm()).collect();
-            let mod_ph: Vec<f64> = model.iter().map(|v| v.arg() * 180.0 / PI).collect();
-            let title = format!("{} receptance", ch.channel);
-            let _ = writeln!(
-                b,
-                "{}",
-                plot(
-                    &title,
-                    "frequency [Hz]",
-                    "|H| [m/N]",
-                    &[
-                        Series {
-                            label: "measured",
-                            x: &fx,
-                            y: &meas_mag,
-                            color: 0,
-                            points: false
-                        },
-                        Series {
-                            label: "model",
-                            x: &fx,
-                            y: &mod_mag,
-                            color: 1,
-                            points: false
-                        }
-                    ],
-                    Scale::Log
-                )
-            );
-            let _ = writeln!(
-                b,
-                "{}",
-                plot(
-                    &format!("{} phase", ch.channel),
-                    "frequency [Hz]",
-                    "phase [deg]",
-                    &[
-                        Series {
-                            label: "measured",
-                            x: &fx,
-                            y: &meas_ph,
-                            color: 0,
-                            points: true
-                        },
-                        Series {
-                            label: "model",
-                            x: &fx,
-                            y: &mod_ph,
-                            color: 1,
-                            points: false
-                        }
-                    ],
-                    Scale::Lin
-                )
-            );
-            if let Some(g) = &ch.coherence {
-                let coh: Vec<f64> = keep.iter().map(|&k| g[k]).collect();
-                let _ = writeln!(
-                    b,
-                    "{}",
-                    plot(
-                        &format!("{} coherence", ch.channel),
-                        "frequency [Hz]",
-                        "coherence",
-                        &[Series {
-                            label: "coherence",
-                            x: &fx,
-                            y: &coh,
-                            color: 2,
-                            points: false
-                        }],
-                        Scale::Lin
-                    )
-                );
-            }
-        }
+        let _ = writeln!(
+            b,
+            "<h3>Modes at pose {}</h3>{}<p>Fit per channel: {}.</p>",
+            i + 1,
+            if twin.poses.len() > 1 {
+                modes_table(&p.model)
+            } else {
+                "<p>(the table above)</p>".into()
+            },
+            p.fit.iter().map(fit_text).collect::<Vec<_>>().join("; ")
+        );
+        pose_frfs(&mut b, i, p);
         if let Some(d) = diagrams.get(i) {
-            let _ = writeln!(b, "{}", diagram_plot(d, p.band_hz));
+            let _ = writeln!(b, "{}", diagram_plot(i, d, p));
         }
-    }
-    if twin.poses.len() > MAX_POSES_SHOWN {
-        let _ = writeln!(
-            b,
-            "<p>({} more poses: see the table; `mtwin eval` gives any pose's FRF.)</p>",
-            twin.poses.len() - MAX_POSES_SHOWN
-        );
+        let _ = writeln!(b, "</details>");
     }
     page("mtwin identify", &b)
 }
 
-fn diagram_plot(d: &StabilizationDiagram, band: [f64; 2]) -> String {
+fn diagram_plot(i: usize, d: &StabilizationDiagram, p: &PoseModel) -> String {
+    let band = p.band_hz;
     let (mut sx, mut sy, mut fx, mut fy, mut nx, mut ny) =
         (vec![], vec![], vec![], vec![], vec![], vec![]);
     for o in &d.orders {
-        for p in &o.poles {
-            if p.f_hz < band[0] || p.f_hz > band[1] {
+        for pl in &o.poles {
+            if pl.f_hz < band[0] || pl.f_hz > band[1] {
                 continue;
             }
-            let (x, y) = if p.stable_freq && p.stable_damping {
+            let (x, y) = if pl.stable_freq && pl.stable_damping {
                 (&mut sx, &mut sy)
-            } else if p.stable_freq {
+            } else if pl.stable_freq {
                 (&mut fx, &mut fy)
             } else {
                 (&mut nx, &mut ny)
             };
-            x.push(p.f_hz);
+            x.push(pl.f_hz);
             y.push(o.order as f64);
         }
     }
     let px: Vec<f64> = d.physical.iter().map(|m| m.f_hz).collect();
-    let top = d.orders.last().map_or(0.0, |o| o.order as f64) + 2.0;
+    let top = d.orders.last().map_or(0.0, |o| o.order as f64) + 1.0;
     let py: Vec<f64> = vec![top; px.len()];
+    let keep = band_lines(p);
+    let f_all: Vec<f64> = keep.iter().map(|&k| p.frf.freqs_hz[k]).collect();
+    let sum_all: Vec<f64> = keep
+        .iter()
+        .map(|&k| p.frf.channels.iter().map(|c| c.h[k].norm()).sum::<f64>() * 1e6)
+        .collect();
+    let sel = thin(&f_all, &sum_all, MAX_POINTS);
+    let fs: Vec<f64> = sel.iter().map(|&j| f_all[j]).collect();
+    let ms: Vec<f64> = sel.iter().map(|&j| sum_all[j]).collect();
+    let lo = band[0].max(fs.first().copied().unwrap_or(1.0));
     format!(
         "<p>Stabilization diagram: poles per model order; \"stable\" = frequency and \
          damping agree with the previous order; the physical modes chosen are marked on \
-         top.</p>{}",
-        plot(
-            "Stabilization diagram",
-            "frequency [Hz]",
-            "model order",
+         top; the grey line is the sum of the measured |H| over the channels.</p>{}",
+        stabilization_figure(
+            &format!("Pose {}: stabilization diagram over the FRF sum", i + 1),
             &[
                 Series {
                     label: "new",
@@ -284,7 +612,10 @@ fn diagram_plot(d: &StabilizationDiagram, band: [f64; 2]) -> String {
                     points: true
                 },
             ],
-            Scale::Lin
+            (&fs, &ms),
+            "Σ|H| measured",
+            "Σ|H| [µm/N]",
+            (lo, band[1]),
         )
     )
 }

@@ -5,7 +5,7 @@ use crate::report::{self, Scale, Series};
 use anyhow::Result;
 use identify::axis::{Axis, Channel};
 use identify::interpolate::TwinEvaluator;
-use identify::lobes::{lobes_sd, lobes_zoa, write_lobes_csv, Cut, SdOptions, Tool};
+use identify::lobes::{lobes_sd, lobes_zoa, write_lobes_csv, Cut, LobePoint, SdOptions, Tool};
 use identify::model::{ChannelModel, ModeNum};
 use identify::twin::Twin;
 use std::path::{Path, PathBuf};
@@ -46,7 +46,9 @@ pub struct Args {
     /// Semi-discretisation steps per engaged tooth period.
     #[arg(long, default_value_t = 40)]
     pub sd_steps: usize,
-    /// Also write an SVG plot of the lobes here.
+    /// Also write an SVG plot of the lobes here: both methods, the stable region (below
+    /// both limits) shaded, the cut's data in the title; a line breaks where a new lobe
+    /// begins (an unstable island's tip: the limit drops there).
     #[arg(long)]
     pub plot: Option<PathBuf>,
 }
@@ -139,11 +141,9 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
     let min_zoa = zoa.iter().map(|p| p.ap_lim_m).fold(f64::INFINITY, f64::min);
     let min_sd = sd.iter().map(|p| p.ap_lim_m).fold(f64::INFINITY, f64::min);
     out.say(format!(
-        "lobes at ({:.3}, {:.3}, {:.3}) m, {} teeth, ae/D {}, Kt {:.3e} N/m², Kr {}: \
+        "lobes at {}, {} teeth, ae/D {}, Kt {:.3e} N/m², Kr {}: \
          minimum stable depth ZOA {:.3} mm ({} speeds, {:.0} ms){}",
-        a.at[0],
-        a.at[1],
-        a.at[2],
+        identify::axis::PoseText(a.at),
         a.cut.teeth,
         a.cut.immersion,
         a.cut.kt,
@@ -163,33 +163,7 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
         }
     ));
     if let Some(p) = &a.plot {
-        let zx: Vec<f64> = zoa.iter().map(|p| p.rpm).collect();
-        let zy: Vec<f64> = zoa.iter().map(|p| p.ap_lim_m * 1e3).collect();
-        let sx: Vec<f64> = sd.iter().map(|p| p.rpm).collect();
-        let sy: Vec<f64> = sd.iter().map(|p| p.ap_lim_m * 1e3).collect();
-        let mut series = vec![Series {
-            label: "zero-order (Altintas-Budak)",
-            x: &zx,
-            y: &zy,
-            color: 2,
-            points: false,
-        }];
-        if !sd.is_empty() {
-            series.push(Series {
-                label: "semi-discretisation",
-                x: &sx,
-                y: &sy,
-                color: 1,
-                points: true,
-            });
-        }
-        let svg = report::plot(
-            "Stability lobes",
-            "spindle speed [rpm]",
-            "limiting axial depth [mm]",
-            &series,
-            Scale::Lin,
-        );
+        let svg = lobes_svg(&a, &zoa, &sd);
         identify::atomic::write_atomic(p, svg.as_bytes())?;
         out.say(format!("plot -> {}", p.display()));
     }
@@ -218,4 +192,119 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
         "sd": sd.iter().map(|p| serde_json::json!({"rpm": p.rpm, "ap_lim_m": p.ap_lim_m, "chatter_hz": p.chatter_hz})).collect::<Vec<_>>(),
     }));
     Ok(())
+}
+
+/// Where the limit changes lobe between two neighbouring speeds: the chatter frequency
+/// jumps (by more than 1 %) and so does the depth (by more than 15 %). That is the lobe
+/// structure, not a sampling artefact: a new lobe's unstable region begins there as an
+/// island (a tongue whose tip is at that speed; above it the cut is stable again up to
+/// the older lobe), so the lowest unstable depth drops at once.
+pub fn new_lobe_between(a: &LobePoint, b: &LobePoint) -> bool {
+    let (fa, fb) = (a.chatter_hz, b.chatter_hz);
+    let (da, db) = (a.ap_lim_m, b.ap_lim_m);
+    da.is_finite()
+        && db.is_finite()
+        && fa > 0.0
+        && fb > 0.0
+        && (fa / fb).ln().abs() > 0.01_f64.ln_1p()
+        && (da / db).ln().abs() > 0.15_f64.ln_1p()
+}
+
+/// The limits in mm (cut at `top_mm`) with a break (NaN) where a new lobe takes over, so
+/// the plot does not draw a vertical line that no boundary follows.
+fn broken_at_new_lobes(pts: &[LobePoint], top_mm: f64) -> (Vec<f64>, Vec<f64>) {
+    let (mut x, mut y) = (Vec::new(), Vec::new());
+    for (i, p) in pts.iter().enumerate() {
+        if i > 0 && new_lobe_between(&pts[i - 1], p) {
+            x.push(0.5 * (pts[i - 1].rpm + p.rpm));
+            y.push(f64::NAN);
+        }
+        x.push(p.rpm);
+        y.push((p.ap_lim_m * 1e3).min(top_mm));
+    }
+    (x, y)
+}
+
+/// The lobes plot: the zero-order and semi-discretisation limits, the stable region
+/// (below the lower of the two) shaded, the cut's data in the title. Depths above a few
+/// times the smallest limit (the lobes' tops, `inf` = no chatter) are cut at the top.
+fn lobes_svg(a: &Args, zoa: &[LobePoint], sd: &[LobePoint]) -> String {
+    let min = zoa
+        .iter()
+        .chain(sd)
+        .map(|p| p.ap_lim_m)
+        .fold(f64::INFINITY, f64::min);
+    let top_mm = if min.is_finite() {
+        6.0 * min * 1e3
+    } else {
+        10.0
+    };
+    let mm = |p: &LobePoint| (p.ap_lim_m * 1e3).min(top_mm);
+    let zx: Vec<f64> = zoa.iter().map(|p| p.rpm).collect();
+    let zy: Vec<f64> = zoa.iter().map(mm).collect();
+    let sx: Vec<f64> = sd.iter().map(|p| p.rpm).collect();
+    let sy: Vec<f64> = sd.iter().map(mm).collect();
+    let (zbx, zby) = broken_at_new_lobes(zoa, top_mm);
+    let (sbx, sby) = broken_at_new_lobes(sd, top_mm);
+    // stable region: below the lower limit; on the zero-order grid where SD is on it too
+    let same_grid = sd.len() == zoa.len() && sx == zx;
+    let (shx, shy) = if sd.is_empty() || !same_grid {
+        (zx.clone(), zy.clone())
+    } else {
+        (
+            zx.clone(),
+            zy.iter().zip(&sy).map(|(a, b)| a.min(*b)).collect(),
+        )
+    };
+    let mut series = vec![Series {
+        label: "zero-order (Altintas–Budak)",
+        x: &zbx,
+        y: &zby,
+        color: 2,
+        points: false,
+    }];
+    if !sd.is_empty() {
+        series.push(Series {
+            label: "semi-discretisation (Insperger–Stépán)",
+            x: &sbx,
+            y: &sby,
+            color: 1,
+            points: false,
+        });
+    }
+    let title = format!(
+        "Stability lobes at {}: {} teeth, ae/D {:.2} {}, Kt {:.0} N/mm², Kr {:.2}{}",
+        identify::axis::PoseText(a.at),
+        a.cut.teeth,
+        a.cut.immersion,
+        if a.cut.up {
+            "up-milling"
+        } else {
+            "down-milling"
+        },
+        a.cut.kt * 1e-6,
+        a.cut.kr,
+        if a.cut.helix != 0.0 {
+            format!(
+                ", helix {:.0}°, D {:.0} mm",
+                a.cut.helix,
+                a.cut.diameter * 1e3
+            )
+        } else {
+            String::new()
+        }
+    );
+    report::figure(&report::Figure {
+        title: &title,
+        xlabel: "spindle speed [rpm]",
+        xscale: Scale::Lin,
+        xrange: Some((a.rpm_min, a.rpm_max)),
+        width: 900,
+        panels: &[report::Panel {
+            yrange: Some((0.0, top_mm * 1.02)),
+            shade: Some((&shx, &shy, "stable (below both limits)")),
+            legend: plotters::chart::SeriesLabelPosition::LowerRight,
+            ..report::Panel::new("limiting axial depth of cut [mm]", Scale::Lin, &series, 380)
+        }],
+    })
 }

@@ -90,7 +90,7 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
     for m in &rep.modes {
         out.say(format!(
             "  mode {}: {:.2} Hz -> {:.2} Hz, damping {:.2} % -> {:.2} %",
-            m.mode,
+            m.mode + 1,
             m.freq_before_hz,
             m.freq_after_hz,
             100.0 * m.zeta_before,

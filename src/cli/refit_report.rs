@@ -3,10 +3,11 @@
 //! modes that changed, how the change spread over the poses, and the whole history with
 //! the mode frequencies over the machine's life.
 
-use crate::report::{esc, page, plot, Scale, Series};
+use crate::report::{esc, figure, page, plot, Figure, Panel, Scale, Series};
+use identify::axis::PoseText;
 use identify::model::ModalModel;
 use identify::operating::operating_spectra;
-use identify::refit::{default_nfft, simulate_record, RefitReport};
+use identify::refit::{default_nfft, mode_numbers, simulate_record, RefitReport};
 use identify::timeseries::TimeSeries;
 use identify::twin::Twin;
 use std::f64::consts::PI;
@@ -20,14 +21,12 @@ pub fn refit_report(old: &Twin, new: &Twin, rep: &RefitReport, series: &[TimeSer
     let mut b = String::new();
     let _ = writeln!(
         b,
-        "<p>Refit of <code>{}</code> from {} operating record(s) at pose ({:.3}, {:.3}, {:.3}) m \
-         with the <b>{:?}</b> method.</p>",
+        "<p>Refit of <code>{}</code> from {} operating record(s) at pose {} \
+         with the <b>{}</b> method. Modes are numbered from 1 (mode 1 = the lowest).</p>",
         esc(&new.name),
         series.len(),
-        rep.pose[0],
-        rep.pose[1],
-        rep.pose[2],
-        rep.method
+        PoseText(rep.pose),
+        format!("{:?}", rep.method).to_lowercase()
     );
     let _ = writeln!(
         b,
@@ -64,13 +63,13 @@ pub fn refit_report(old: &Twin, new: &Twin, rep: &RefitReport, series: &[TimeSer
             .join(", ");
         let _ = writeln!(
             b,
-            "<h2>Held-out check</h2><p>{}. Split: {}. Modes the data excite: {:?}; refused at an \
-             identity bound: {:?}. Twin's relative discrepancy per channel (added to the \
+            "<h2>Held-out check</h2><p>{}. Split: {}. Modes the data excite: {}; refused at an \
+             identity bound: {}. Twin's relative discrepancy per channel (added to the \
              standard errors): {}.</p>",
             esc(&h.note),
             esc(&h.split),
-            h.candidates,
-            h.refused_at_bound,
+            mode_numbers(&h.candidates),
+            mode_numbers(&h.refused_at_bound),
             esc(&disc)
         );
     }
@@ -101,7 +100,7 @@ pub fn refit_report(old: &Twin, new: &Twin, rep: &RefitReport, series: &[TimeSer
                 b,
                 "<tr><td>{}</td><td>{:.2}</td><td>{:.2}</td><td>{:+.2} %</td><td>{:.2} %</td>\
                  <td>{:.2} %</td></tr>",
-                m.mode,
+                m.mode + 1,
                 m.freq_before_hz,
                 m.freq_after_hz,
                 100.0 * (m.freq_after_hz / m.freq_before_hz - 1.0),
@@ -120,11 +119,7 @@ pub fn refit_report(old: &Twin, new: &Twin, rep: &RefitReport, series: &[TimeSer
              measured pose (1 = in full).</p><table><tr><th>pose [m]</th><th>weight</th></tr>"
         );
         for (p, w) in &rep.pose_weights {
-            let _ = writeln!(
-                b,
-                "<tr><td>({:.3}, {:.3}, {:.3})</td><td>{w:.3}</td></tr>",
-                p[0], p[1], p[2]
-            );
+            let _ = writeln!(b, "<tr><td>{}</td><td>{w:.3}</td></tr>", PoseText(*p));
         }
         let _ = writeln!(b, "</table>");
     }
@@ -153,8 +148,18 @@ fn frf_section(b: &mut String, old: &Twin, new: &Twin, rep: &RefitReport, series
         .max(rep.lines_hz.iter().copied().fold(0.0, f64::max))
         * 1.3;
     let hi = hi.min(*sp.freqs_hz.last().unwrap_or(&hi));
+    // from half the lowest mode: a log axis, as FRFs are read
+    let lo = 0.5
+        * m_old
+            .modes
+            .iter()
+            .map(|m| m.freq_hz())
+            .fold(f64::INFINITY, f64::min)
+            .min(hi / 20.0);
     let n = 800;
-    let f: Vec<f64> = (1..=n).map(|i| hi * i as f64 / n as f64).collect();
+    let f: Vec<f64> = (0..n)
+        .map(|i| lo * (hi / lo).powf(i as f64 / (n - 1) as f64))
+        .collect();
     let _ = writeln!(
         b,
         "<h2>Operating FRF vs the twin</h2><p>Receptance at the operating pose: the \
@@ -169,6 +174,7 @@ fn frf_section(b: &mut String, old: &Twin, new: &Twin, rep: &RefitReport, series
         let idx: Vec<usize> = rep
             .lines_hz
             .iter()
+            .filter(|&&lf| lf >= lo && lf <= hi)
             .filter_map(|lf| {
                 sp.freqs_hz
                     .iter()
@@ -176,74 +182,77 @@ fn frf_section(b: &mut String, old: &Twin, new: &Twin, rep: &RefitReport, series
             })
             .collect();
         let fx: Vec<f64> = idx.iter().map(|&k| sp.freqs_hz[k]).collect();
-        let mag_pts: Vec<f64> = idx.iter().map(|&k| h[k].norm()).collect();
+        let mag_pts: Vec<f64> = idx.iter().map(|&k| h[k].norm() * 1e6).collect();
         let ph_pts: Vec<f64> = idx.iter().map(|&k| h[k].arg() * 180.0 / PI).collect();
         let before: Vec<_> = f.iter().map(|&x| m_old.eval_hz(ci_old, x)).collect();
         let after: Vec<_> = f.iter().map(|&x| m_new.eval_hz(ci_new, x)).collect();
-        let mag = |v: &[num_complex::Complex64]| v.iter().map(|c| c.norm()).collect::<Vec<_>>();
+        let mag =
+            |v: &[num_complex::Complex64]| v.iter().map(|c| c.norm() * 1e6).collect::<Vec<_>>();
         let ph = |v: &[num_complex::Complex64]| {
             v.iter().map(|c| c.arg() * 180.0 / PI).collect::<Vec<_>>()
         };
         let (mb, ma, pb, pa) = (mag(&before), mag(&after), ph(&before), ph(&after));
         let name = ch.name();
-        b.push_str(&plot(
-            &format!("{name}: |H| [m/N]"),
-            "frequency [Hz]",
-            "|H| [m/N]",
-            &[
-                Series {
-                    label: "twin before",
-                    x: &f,
-                    y: &mb,
-                    color: 2,
-                    points: false,
-                },
-                Series {
-                    label: "twin after",
-                    x: &f,
-                    y: &ma,
-                    color: 1,
-                    points: false,
-                },
-                Series {
-                    label: "operating H1 (lines used)",
-                    x: &fx,
-                    y: &mag_pts,
-                    color: 0,
-                    points: true,
+        let mags = [
+            Series {
+                label: "operating H1 (lines used)",
+                x: &fx,
+                y: &mag_pts,
+                color: 0,
+                points: true,
+            },
+            Series {
+                label: "twin before",
+                x: &f,
+                y: &mb,
+                color: 2,
+                points: false,
+            },
+            Series {
+                label: "twin after",
+                x: &f,
+                y: &ma,
+                color: 1,
+                points: false,
+            },
+        ];
+        let phs = [
+            Series {
+                label: "",
+                x: &fx,
+                y: &ph_pts,
+                color: 0,
+                points: true,
+            },
+            Series {
+                label: "",
+                x: &f,
+                y: &pb,
+                color: 2,
+                points: false,
+            },
+            Series {
+                label: "",
+                x: &f,
+                y: &pa,
+                color: 1,
+                points: false,
+            },
+        ];
+        b.push_str(&figure(&Figure {
+            title: &format!("{name}: operating FRF vs the twin"),
+            xlabel: "frequency [Hz]",
+            xscale: Scale::Log,
+            xrange: Some((lo, hi)),
+            width: 760,
+            panels: &[
+                Panel::new("|H| [µm/N]", Scale::Log, &mags, 260),
+                Panel {
+                    yrange: Some((-190.0, 190.0)),
+                    ..Panel::new("phase [°]", Scale::Lin, &phs, 140)
                 },
             ],
-            Scale::Log,
-        ));
-        b.push_str(&plot(
-            &format!("{name}: phase [deg]"),
-            "frequency [Hz]",
-            "phase [deg]",
-            &[
-                Series {
-                    label: "twin before",
-                    x: &f,
-                    y: &pb,
-                    color: 2,
-                    points: false,
-                },
-                Series {
-                    label: "twin after",
-                    x: &f,
-                    y: &pa,
-                    color: 1,
-                    points: false,
-                },
-                Series {
-                    label: "operating H1 (lines used)",
-                    x: &fx,
-                    y: &ph_pts,
-                    color: 0,
-                    points: true,
-                },
-            ],
-            Scale::Lin,
-        ));
+        }));
     }
 }
 
@@ -260,6 +269,11 @@ fn response_section(b: &mut String, old: &Twin, new: &Twin, series: &[TimeSeries
         esc(&ts.source),
         ts.len().min(MAX_SAMPLES_SHOWN)
     );
+    let unit = if ts.response_kind == Some(identify::timeseries::ResponseKind::Acceleration) {
+        "acceleration [m/s²]"
+    } else {
+        "displacement [m]"
+    };
     for ((axis, meas, sb), (_, _, sa)) in before.iter().zip(&after) {
         let n = meas.len().min(MAX_SAMPLES_SHOWN);
         let t: Vec<f64> = (0..n).map(|i| i as f64 * ts.dt).collect();
@@ -268,7 +282,7 @@ fn response_section(b: &mut String, old: &Twin, new: &Twin, series: &[TimeSeries
         b.push_str(&plot(
             &format!("response {axis}: measured and twin after the refit"),
             "time [s]",
-            "response",
+            unit,
             &[
                 Series {
                     label: "measured",
@@ -290,7 +304,7 @@ fn response_section(b: &mut String, old: &Twin, new: &Twin, series: &[TimeSeries
         b.push_str(&plot(
             &format!("response {axis}: residual (measured − twin)"),
             "time [s]",
-            "residual",
+            unit,
             &[
                 Series {
                     label: "before",
@@ -368,7 +382,7 @@ fn history_section(b: &mut String, twin: &Twin, pose: [f64; 3]) {
         })
         .collect();
     let labels: Vec<String> = (0..n_modes)
-        .map(|k| format!("mode {k} ({:.0} Hz)", states[0].modes[k].freq_hz()))
+        .map(|k| format!("mode {} ({:.0} Hz)", k + 1, states[0].modes[k].freq_hz()))
         .collect();
     let series: Vec<Series> = ys
         .iter()

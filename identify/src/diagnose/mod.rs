@@ -174,6 +174,14 @@ pub struct Diagnosis {
     pub candidates: Vec<CandidateScore>,
 }
 
+/// Beside a `mode` index (from 0, the index into the twin's `modes`) the same mode
+/// numbered as people count, from 1: `mode_number` (docs/formats.md, "Diagnosis output").
+fn number_modes(d: &mut Map<String, Value>) {
+    if let Some(k) = d.get("mode").and_then(Value::as_u64) {
+        d.insert("mode_number".into(), json!(k + 1));
+    }
+}
+
 fn summary_for(cause: Cause, d: &Map<String, Value>, before: f64, after: f64) -> String {
     let num = |k: &str| d.get(k).and_then(Value::as_f64).unwrap_or(f64::NAN);
     let txt = |k: &str| d.get(k).and_then(Value::as_str).unwrap_or("?").to_string();
@@ -674,6 +682,10 @@ pub fn diagnose(
         }
     }
     details.insert("holdout".into(), json!(holdout));
+    number_modes(&mut details);
+    for s in &mut scores {
+        number_modes(&mut s.details);
+    }
     let summary = summary_for(cause, &details, fit_before, fit_after);
     let mut ext = ext;
     if cause != Cause::None && cause != Cause::Unexplained {

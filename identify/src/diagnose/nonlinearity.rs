@@ -204,8 +204,11 @@ pub(super) fn cand_nonlinearity(
             d.insert(
                 "extension".into(),
                 json!(format!(
-                    "cubic modal stiffness on mode {k}: q'' + 2 zeta w q' + w^2 q (1 + kappa q^2) = F, \
-                     kappa = {kappa:.4e} (in mtwin simulate and the FMU); build-data fit {fit_lin:.2} % -> {fit_cubic:.2} %"
+                    "cubic modal stiffness on mode {} ({:.0} Hz, modes numbered from 1): \
+                     q'' + 2 zeta w q' + w^2 q (1 + kappa q^2) = F, kappa = {kappa:.4e} (in mtwin \
+                     simulate and the FMU); build-data fit {fit_lin:.2} % -> {fit_cubic:.2} %",
+                    k + 1,
+                    m0.modes[k].freq_hz()
                 )),
             );
             t
