@@ -874,7 +874,11 @@ impl SdProblem {
     /// islands for some speeds next to the tip, and the limit jumped late.
     fn limit_guarded(&self, rpm: f64, guess: f64) -> Result<(f64, Floquet)> {
         let (mut ap, mut fl) = self.limit(rpm, guess)?;
-        let rho = |a: f64| -> Result<f64> { Ok(self.floquet(rpm, a)?.spectral_radius) };
+        // a probe whose monodromy's eigenvalues do not converge tells nothing: NaN, never
+        // a hump (the guard must not fail a limit the bracketing found)
+        let rho = |a: f64| -> Result<f64> {
+            Ok(self.floquet(rpm, a).map_or(f64::NAN, |f| f.spectral_radius))
+        };
         'outer: for _ in 0..6 {
             if !ap.is_finite() || ap <= 0.0 {
                 break;
@@ -884,7 +888,8 @@ impl SdProblem {
                 .map(|j| ap * j as f64 / (n + 1) as f64)
                 .collect();
             let mut r = Vec::with_capacity(n + 2);
-            r.push(rho(0.0)?);
+            // no cut, no regeneration: the free structure decays (ρ < 1)
+            r.push(0.0);
             for &d in &depths[1..=n] {
                 r.push(rho(d)?);
             }
