@@ -21,7 +21,7 @@
 //! change stability and is left out. An optional tap `kick` (N, along x and y, for
 //! `t < kick_duration`) starts the vibration.
 
-use crate::slave::Phase;
+use crate::slave::{Life, Phase};
 use model_description::{ModelDescription, Real};
 use serde::{Deserialize, Serialize};
 use std::collections::VecDeque;
@@ -307,9 +307,7 @@ pub struct ProcessSlave {
     /// (time, dx, dy) at the communication points, oldest first, kept for one tooth
     /// period.
     history: VecDeque<(f64, f64, f64)>,
-    time: f64,
-    start_time: f64,
-    phase: Phase,
+    life: Life,
 }
 
 impl ProcessSlave {
@@ -321,63 +319,41 @@ impl ProcessSlave {
             start,
             inputs: [0.0; 2],
             history: VecDeque::new(),
-            time: 0.0,
-            start_time: 0.0,
-            phase: Phase::Instantiated,
+            life: Life::default(),
         })
     }
 
     /// Current phase.
     pub fn phase(&self) -> Phase {
-        self.phase
+        self.life.phase
     }
 
     /// Current time.
     pub fn time(&self) -> f64 {
-        self.time
+        self.life.time
     }
 
     /// `fmi2SetupExperiment`.
     pub fn setup(&mut self, start_time: f64) -> Result<(), String> {
-        if self.phase != Phase::Instantiated {
-            return Err(
-                "fmi2SetupExperiment is only allowed right after instantiation or reset".into(),
-            );
-        }
-        if !start_time.is_finite() {
-            return Err(format!("start time {start_time} is not finite"));
-        }
-        self.start_time = start_time;
-        self.time = start_time;
-        Ok(())
+        self.life.setup(start_time)
     }
 
     /// `fmi2EnterInitializationMode`.
     pub fn enter_init(&mut self) -> Result<(), String> {
-        if self.phase != Phase::Instantiated {
-            return Err("fmi2EnterInitializationMode called twice or after initialization".into());
-        }
-        self.phase = Phase::Initialization;
-        Ok(())
+        self.life.enter_init()
     }
 
     /// `fmi2ExitInitializationMode`: the parameters are checked here.
     pub fn exit_init(&mut self) -> Result<(), String> {
-        if self.phase != Phase::Initialization {
-            return Err("fmi2ExitInitializationMode without fmi2EnterInitializationMode".into());
+        if self.life.phase == Phase::Initialization {
+            self.cut.validate()?;
         }
-        self.cut.validate()?;
-        self.phase = Phase::StepComplete;
-        Ok(())
+        self.life.exit_init()
     }
 
     /// `fmi2Terminate`.
     pub fn terminate(&mut self) -> Result<(), String> {
-        if self.phase != Phase::StepComplete {
-            return Err("fmi2Terminate is only allowed after initialization".into());
-        }
-        self.phase = Phase::Terminated;
-        Ok(())
+        self.life.terminate()
     }
 
     /// `fmi2Reset`.
@@ -385,9 +361,7 @@ impl ProcessSlave {
         self.cut = self.start.clone();
         self.inputs = [0.0; 2];
         self.history.clear();
-        self.time = 0.0;
-        self.start_time = 0.0;
-        self.phase = Phase::Instantiated;
+        self.life = Life::default();
     }
 
     /// No warnings: the cut has no box to leave.
@@ -398,7 +372,7 @@ impl ProcessSlave {
     /// `fmi2SetReal`: the displacements at any time, the parameters before the end of
     /// initialization (they are fixed).
     pub fn set_real(&mut self, vrs: &[u32], values: &[f64]) -> Result<(), String> {
-        if self.phase == Phase::Terminated {
+        if self.life.phase == Phase::Terminated {
             return Err("fmi2SetReal after fmi2Terminate".into());
         }
         for (&vr, &v) in vrs.iter().zip(values) {
@@ -412,7 +386,7 @@ impl ProcessSlave {
                 }
                 _ => {
                     let p = param(vr)?;
-                    if self.phase == Phase::StepComplete {
+                    if self.life.phase == Phase::StepComplete {
                         return Err(format!(
                             "{} is a fixed parameter: set it before fmi2ExitInitializationMode",
                             p.name
@@ -430,9 +404,9 @@ impl ProcessSlave {
         // before the cut started the tool was at rest; a point older than the delay line
         // keeps (only by rounding: it holds one step more than a tooth period) is its
         // oldest
-        let first = self.history.front().map_or(self.time, |s| s.0);
-        let rounding = 1e-9 * (self.time - self.start_time).abs().max(1e-12);
-        if t < self.start_time - rounding || (self.history.is_empty() && t < first) {
+        let first = self.history.front().map_or(self.life.time, |s| s.0);
+        let rounding = 1e-9 * (self.life.time - self.life.start_time).abs().max(1e-12);
+        if t < self.life.start_time - rounding || (self.history.is_empty() && t < first) {
             return [0.0, 0.0];
         }
         let t = t.max(first);
@@ -449,7 +423,7 @@ impl ProcessSlave {
             // t at or after the last recorded point: the current displacement is the
             // next point, not recorded yet
             _ => {
-                let (tb, xb, yb) = (self.time, self.inputs[0], self.inputs[1]);
+                let (tb, xb, yb) = (self.life.time, self.inputs[0], self.inputs[1]);
                 if tb > ta {
                     let w = (t - ta) / (tb - ta);
                     [xa + w * (xb - xa), ya + w * (yb - ya)]
@@ -463,9 +437,9 @@ impl ProcessSlave {
     /// The cutting force now (from the inputs as set and the delay line).
     pub fn outputs(&self) -> [f64; 2] {
         let tau = self.cut.tooth_period();
-        let old = self.delayed(self.time - tau);
+        let old = self.delayed(self.life.time - tau);
         let d = [self.inputs[0] - old[0], self.inputs[1] - old[1]];
-        let t = self.time - self.start_time;
+        let t = self.life.time - self.life.start_time;
         let mut f = self.cut.force(t, d);
         if t < self.cut.kick_duration {
             f[0] += self.cut.kick;
@@ -495,30 +469,16 @@ impl ProcessSlave {
 
     /// `fmi2DoStep`: records the displacement at the communication point.
     pub fn do_step(&mut self, t: f64, h: f64) -> Result<(), String> {
-        if self.phase != Phase::StepComplete {
-            return Err("fmi2DoStep is only allowed after fmi2ExitInitializationMode and before fmi2Terminate".into());
-        }
-        if !(h >= 0.0 && h.is_finite() && t.is_finite()) {
-            return Err(format!(
-                "communication step {h} at {t} is not a finite non-negative number"
-            ));
-        }
-        let tol = 1e-9 * (1.0 + t.abs().max(self.time.abs()));
-        if (t - self.time).abs() > tol.max(1e-6 * h) {
-            return Err(format!(
-                "doStep at t = {t} but the slave is at {} (steps must follow each other)",
-                self.time
-            ));
-        }
+        self.life.check_step(t, h)?;
         if h > 0.0 {
             self.history
-                .push_back((self.time, self.inputs[0], self.inputs[1]));
+                .push_back((self.life.time, self.inputs[0], self.inputs[1]));
             // keep what t + h − τ can still reach, and one step more (rounding)
-            let keep_from = self.time - self.cut.tooth_period();
+            let keep_from = self.life.time - self.cut.tooth_period();
             while self.history.len() > 2 && self.history[1].0 <= keep_from {
                 self.history.pop_front();
             }
-            self.time = t + h;
+            self.life.time = t + h;
         }
         Ok(())
     }

@@ -147,6 +147,93 @@ impl Snapshot {
     }
 }
 
+/// The life cycle every slave of this library shares: phase, time, start time, and the
+/// checks of the calls that move them.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Life {
+    /// Current phase.
+    pub phase: Phase,
+    /// Current time (the last communication point reached).
+    pub time: f64,
+    /// Start time of the experiment.
+    pub start_time: f64,
+}
+
+impl Default for Life {
+    fn default() -> Self {
+        Life {
+            phase: Phase::Instantiated,
+            time: 0.0,
+            start_time: 0.0,
+        }
+    }
+}
+
+impl Life {
+    /// The start time (`fmi2SetupExperiment`; part of `fmi3EnterInitializationMode`).
+    pub fn setup(&mut self, start_time: f64) -> Result<(), String> {
+        if self.phase != Phase::Instantiated {
+            return Err("the start time can only be set right after instantiation or reset".into());
+        }
+        if !start_time.is_finite() {
+            return Err(format!("start time {start_time} is not finite"));
+        }
+        self.start_time = start_time;
+        self.time = start_time;
+        Ok(())
+    }
+
+    /// `fmi2EnterInitializationMode` / `fmi3EnterInitializationMode`.
+    pub fn enter_init(&mut self) -> Result<(), String> {
+        if self.phase != Phase::Instantiated {
+            return Err("EnterInitializationMode called twice or after initialization".into());
+        }
+        self.phase = Phase::Initialization;
+        Ok(())
+    }
+
+    /// `fmi2ExitInitializationMode` / `fmi3ExitInitializationMode` (into Step Mode).
+    pub fn exit_init(&mut self) -> Result<(), String> {
+        if self.phase != Phase::Initialization {
+            return Err("ExitInitializationMode without EnterInitializationMode".into());
+        }
+        self.phase = Phase::StepComplete;
+        Ok(())
+    }
+
+    /// `fmi2Terminate` / `fmi3Terminate`.
+    pub fn terminate(&mut self) -> Result<(), String> {
+        if self.phase != Phase::StepComplete {
+            return Err("Terminate is only allowed after initialization".into());
+        }
+        self.phase = Phase::Terminated;
+        Ok(())
+    }
+
+    /// A `DoStep(t, h)` is allowed now: stepping, a finite non-negative step, `t` the
+    /// time reached.
+    pub fn check_step(&self, t: f64, h: f64) -> Result<(), String> {
+        if self.phase != Phase::StepComplete {
+            return Err(
+                "DoStep is only allowed after ExitInitializationMode and before Terminate".into(),
+            );
+        }
+        if !(h >= 0.0 && h.is_finite() && t.is_finite()) {
+            return Err(format!(
+                "communication step {h} at {t} is not a finite non-negative number"
+            ));
+        }
+        let tol = 1e-9 * (1.0 + t.abs().max(self.time.abs()));
+        if (t - self.time).abs() > tol.max(1e-6 * h) {
+            return Err(format!(
+                "doStep at t = {t} but the slave is at {} (steps must follow each other)",
+                self.time
+            ));
+        }
+        Ok(())
+    }
+}
+
 /// The slave core.
 #[derive(Debug)]
 pub struct Slave {
@@ -158,9 +245,7 @@ pub struct Slave {
     /// Fx, Fy, Fz, x, y, z.
     inputs: [f64; 6],
     start: [f64; 6],
-    time: f64,
-    start_time: f64,
-    phase: Phase,
+    life: Life,
     /// The measured box (the model is clamped to it).
     lo: [f64; 3],
     hi: [f64; 3],
@@ -213,9 +298,7 @@ impl Slave {
             disturbance: twin.extensions.disturbance.clone(),
             inputs: start,
             start,
-            time: 0.0,
-            start_time: 0.0,
-            phase: Phase::Instantiated,
+            life: Life::default(),
             lo,
             hi,
             outside: false,
@@ -244,12 +327,12 @@ impl Slave {
 
     /// Current phase.
     pub fn phase(&self) -> Phase {
-        self.phase
+        self.life.phase
     }
 
     /// Current time.
     pub fn time(&self) -> f64 {
-        self.time
+        self.life.time
     }
 
     fn slot(v: Var) -> Option<usize> {
@@ -275,51 +358,29 @@ impl Slave {
 
     /// The start time (`fmi2SetupExperiment`; part of `fmi3EnterInitializationMode`).
     pub fn setup(&mut self, start_time: f64) -> Result<(), String> {
-        if self.phase != Phase::Instantiated {
-            return Err("the start time can only be set right after instantiation or reset".into());
-        }
-        if !start_time.is_finite() {
-            return Err(format!("start time {start_time} is not finite"));
-        }
-        self.start_time = start_time;
-        self.time = start_time;
-        Ok(())
+        self.life.setup(start_time)
     }
 
     /// `fmi2EnterInitializationMode` / `fmi3EnterInitializationMode`.
     pub fn enter_init(&mut self) -> Result<(), String> {
-        if self.phase != Phase::Instantiated {
-            return Err("EnterInitializationMode called twice or after initialization".into());
-        }
-        self.phase = Phase::Initialization;
-        Ok(())
+        self.life.enter_init()
     }
 
     /// `fmi2ExitInitializationMode` / `fmi3ExitInitializationMode` (into Step Mode).
     pub fn exit_init(&mut self) -> Result<(), String> {
-        if self.phase != Phase::Initialization {
-            return Err("ExitInitializationMode without EnterInitializationMode".into());
-        }
-        self.phase = Phase::StepComplete;
-        Ok(())
+        self.life.exit_init()
     }
 
     /// `fmi2Terminate` / `fmi3Terminate`.
     pub fn terminate(&mut self) -> Result<(), String> {
-        if self.phase != Phase::StepComplete {
-            return Err("Terminate is only allowed after initialization".into());
-        }
-        self.phase = Phase::Terminated;
-        Ok(())
+        self.life.terminate()
     }
 
     /// `fmi2Reset` / `fmi3Reset`: back to the state right after instantiation.
     pub fn reset(&mut self) {
         self.sim.reset();
         self.inputs = self.start;
-        self.time = 0.0;
-        self.start_time = 0.0;
-        self.phase = Phase::Instantiated;
+        self.life = Life::default();
         self.outside = false;
         self.warnings.clear();
     }
@@ -361,7 +422,7 @@ impl Slave {
                 "t = {} s: axis position outside the measured box ({}): the twin is \
                  evaluated at the nearest point of the box (clamped, not extrapolated); \
                  warned once until the axes come back into the box",
-                self.time,
+                self.life.time,
                 out.join(", ")
             ));
         }
@@ -370,7 +431,7 @@ impl Slave {
 
     /// `fmi2SetReal` / `fmi3SetFloat64`.
     pub fn set_real(&mut self, vrs: &[u32], values: &[f64]) -> Result<(), String> {
-        if self.phase == Phase::Terminated {
+        if self.life.phase == Phase::Terminated {
             return Err("setting a variable after Terminate".into());
         }
         for (vr, v) in vrs.iter().zip(values) {
@@ -404,7 +465,7 @@ impl Slave {
         let model = self.ev.model_at(pose);
         let mut y = self.sim.output(model, &u);
         for d in &self.disturbance {
-            let ph = 2.0 * std::f64::consts::PI * d.freq_hz * self.time;
+            let ph = 2.0 * std::f64::consts::PI * d.freq_hz * self.life.time;
             y[d.axis.index()] += d.a * ph.cos() + d.b * ph.sin();
         }
         y
@@ -416,7 +477,7 @@ impl Slave {
         let mut y: Option<[f64; 3]> = None;
         for (vr, o) in vrs.iter().zip(out.iter_mut()) {
             if self.time_vr == Some(*vr) {
-                *o = self.time;
+                *o = self.life.time;
                 continue;
             }
             let var = self.var(*vr)?;
@@ -440,23 +501,7 @@ impl Slave {
 
     /// `fmi2DoStep` / `fmi3DoStep`.
     pub fn do_step(&mut self, t: f64, h: f64) -> Result<(), String> {
-        if self.phase != Phase::StepComplete {
-            return Err(
-                "DoStep is only allowed after ExitInitializationMode and before Terminate".into(),
-            );
-        }
-        if !(h >= 0.0 && h.is_finite() && t.is_finite()) {
-            return Err(format!(
-                "communication step {h} at {t} is not a finite non-negative number"
-            ));
-        }
-        let tol = 1e-9 * (1.0 + t.abs().max(self.time.abs()));
-        if (t - self.time).abs() > tol.max(1e-6 * h) {
-            return Err(format!(
-                "doStep at t = {t} but the slave is at {} (steps must follow each other)",
-                self.time
-            ));
-        }
+        self.life.check_step(t, h)?;
         if h > 0.0 {
             let pose = self.checked_pose();
             let u = self.force();
@@ -471,17 +516,17 @@ impl Slave {
                 ));
             }
         }
-        self.time = t + h;
+        self.life.time = t + h;
         Ok(())
     }
 
     /// Snapshot for `fmi2GetFMUstate` / `fmi3GetFMUState`.
     pub fn snapshot(&self) -> Snapshot {
         Snapshot {
-            time: self.time,
+            time: self.life.time,
             inputs: self.inputs,
             state: self.sim.state().to_vec(),
-            phase_stepping: self.phase == Phase::StepComplete,
+            phase_stepping: self.life.phase == Phase::StepComplete,
         }
     }
 
@@ -490,10 +535,10 @@ impl Slave {
         if !self.sim.set_state(&s.state) {
             return Err("FMU state belongs to another FMU (state size differs)".into());
         }
-        self.time = s.time;
+        self.life.time = s.time;
         self.inputs = s.inputs;
         if s.phase_stepping {
-            self.phase = Phase::StepComplete;
+            self.life.phase = Phase::StepComplete;
         }
         Ok(())
     }

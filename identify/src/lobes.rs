@@ -947,16 +947,35 @@ impl SdProblem {
         Ok((ap, fl))
     }
 
+    /// `ln ρ` at `ap` with the Floquet result.
+    fn ln_rho(&self, rpm: f64, ap: f64) -> Result<(f64, Floquet)> {
+        let fl = self.floquet(rpm, ap)?;
+        Ok((fl.spectral_radius.max(1e-300).ln(), fl))
+    }
+
     /// The first depth in `(lo, hi]` where ρ reaches 1, with ρ(`lo`) < 1 ≤ ρ(`hi`), by
     /// Illinois regula falsi on ln ρ (a crossing of a bracket, never outside it).
     fn crossing(&self, rpm: f64, lo: f64, hi: f64) -> Result<(f64, Floquet)> {
-        let f = |ap: f64| -> Result<(f64, Floquet)> {
-            let fl = self.floquet(rpm, ap)?;
-            Ok((fl.spectral_radius.max(1e-300).ln(), fl))
+        // at zero depth the free structure decays: ln ρ < 0 (not computed: its
+        // monodromy is the one whose eigenvalues may not converge)
+        let flo = if lo > 0.0 {
+            self.ln_rho(rpm, lo)?.0
+        } else {
+            -1.0
         };
-        let (mut lo, mut hi) = (lo, hi);
-        let (mut flo, _) = f(lo)?;
-        let (mut fhi, mut fl_hi) = f(hi)?;
+        let (fhi, fl_hi) = self.ln_rho(rpm, hi)?;
+        self.illinois(rpm, (lo, flo), (hi, fhi, fl_hi))
+    }
+
+    /// Illinois regula falsi on `ln ρ(ap)` inside the bracket `lo` (ln ρ < 0) .. `hi`
+    /// (ln ρ ≥ 0, with its Floquet result) to `opts.rel_tol`: the upper end's depth
+    /// and result.
+    fn illinois(
+        &self,
+        rpm: f64,
+        (mut lo, mut flo): (f64, f64),
+        (mut hi, mut fhi, mut fl_hi): (f64, f64, Floquet),
+    ) -> Result<(f64, Floquet)> {
         let mut side = 0i8;
         for _ in 0..60 {
             if hi - lo <= self.opts.rel_tol * hi {
@@ -966,7 +985,7 @@ impl SdProblem {
             if !(c > lo && c < hi) {
                 c = 0.5 * (lo + hi);
             }
-            let (fc, flc) = f(c)?;
+            let (fc, flc) = self.ln_rho(rpm, c)?;
             if fc < 0.0 {
                 (lo, flo) = (c, fc);
                 if side == -1 {
@@ -986,10 +1005,7 @@ impl SdProblem {
 
     /// The smallest unstable depth near `guess` by bracketing and Illinois on ln ρ.
     fn limit(&self, rpm: f64, guess: f64) -> Result<(f64, Floquet)> {
-        let f = |ap: f64| -> Result<(f64, Floquet)> {
-            let fl = self.floquet(rpm, ap)?;
-            Ok((fl.spectral_radius.max(1e-300).ln(), fl))
-        };
+        let f = |ap: f64| self.ln_rho(rpm, ap);
         let start = if guess.is_finite() && guess > 0.0 {
             guess
         } else {
@@ -1032,32 +1048,7 @@ impl SdProblem {
                 }
             }
         }
-        // Illinois regula falsi on f(ap) = ln ρ(ap)
-        let mut side = 0i8;
-        for _ in 0..60 {
-            if hi - lo <= self.opts.rel_tol * hi {
-                break;
-            }
-            let mut c = (lo * fhi - hi * flo) / (fhi - flo);
-            if !(c > lo && c < hi) {
-                c = 0.5 * (lo + hi);
-            }
-            let (fc, flc) = f(c)?;
-            if fc < 0.0 {
-                (lo, flo) = (c, fc);
-                if side == -1 {
-                    fhi *= 0.5;
-                }
-                side = -1;
-            } else {
-                (hi, fhi, fl_hi) = (c, fc, flc);
-                if side == 1 {
-                    flo *= 0.5;
-                }
-                side = 1;
-            }
-        }
-        Ok((0.5 * (lo + hi), fl_hi))
+        self.illinois(rpm, (lo, flo), (hi, fhi, fl_hi))
     }
 }
 
