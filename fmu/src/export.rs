@@ -8,7 +8,7 @@
 //! (`cargo install --path .`) needs nothing next to it.
 
 use crate::resources::{utc_iso, FmuTwin};
-use crate::slave::{start_pose, variables, Var};
+use crate::slave::{metres, start_pose, variables, Var};
 use identify::axis::Axis;
 use identify::twin::Twin;
 use model_description::{
@@ -71,7 +71,8 @@ fn describe(v: Var, lo: &[f64; 3], hi: &[f64; 3]) -> String {
                  twin was measured for {a} in [{}, {}] m (min/max); outside, the model of the \
                  nearest point of that box is used (clamped, not extrapolated) and a warning \
                  is logged once per excursion",
-                lo[i], hi[i]
+                metres(lo[i]),
+                metres(hi[i])
             )
         }
         Var::Disp(a) => format!(
@@ -120,7 +121,10 @@ pub fn model_description_at(twin: &Twin, unix_time: u64) -> ModelDescription {
     let mut md = ModelDescription::co_simulation(&twin.name, &lean.guid, MODEL_IDENTIFIER);
     let boxed = Axis::ALL
         .iter()
-        .map(|a| format!("{a} {}..{} m", lo[a.index()], hi[a.index()]))
+        .map(|a| {
+            let i = a.index();
+            format!("{a} {}..{} m", metres(lo[i]), metres(hi[i]))
+        })
         .collect::<Vec<_>>()
         .join(", ");
     md.description = Some(format!(

@@ -68,6 +68,12 @@ pub fn start_pose(lo: &[f64; 3], hi: &[f64; 3]) -> [f64; 3] {
     p
 }
 
+/// A position in m as a person writes it: to the micrometre, without the rounding
+/// noise of the pose arithmetic (0.6000000000000694 -> 0.6).
+pub(crate) fn metres(v: f64) -> f64 {
+    (v * 1e6).round() / 1e6
+}
+
 /// Life-cycle state of the slave.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Phase {
@@ -409,8 +415,8 @@ impl Slave {
                     "{} = {} m (measured {}..{} m)",
                     Axis::ALL[a],
                     pose[a],
-                    self.lo[a],
-                    self.hi[a]
+                    metres(self.lo[a]),
+                    metres(self.hi[a])
                 )
             })
             .collect();
