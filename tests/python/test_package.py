@@ -57,7 +57,7 @@ def test_identify_equals_cli(pkg):
 
 def test_eval_equals_cli(pkg, built, tmp_path):
     f = np.linspace(20.0, 2400.0, 300)
-    (tmp_path / "f.txt").write_text("\n".join(repr(x) for x in f))
+    (tmp_path / "f.txt").write_text("\n".join(repr(float(x)) for x in f))
     run(MTWIN, "--quiet", "eval", "--twin", built["dir"] / "twin.json", "--at", ",".join(map(str, POSE)),
         "--freqs", tmp_path / "f.txt", "--out", tmp_path / "frf.csv")
     ref = load_csv(tmp_path / "frf.csv")
@@ -107,14 +107,42 @@ def test_lobes_equal_cli(pkg, built, tmp_path):
     assert len(lo.sd_rpm) == 0
 
 
+def changed(twin, factor, path):
+    """`twin` with every natural frequency times `factor` (a worn machine), saved and read."""
+    info = twin.info
+    for p in info["poses"]:
+        for m in p["model"]["modes"]:
+            m["wn"] *= factor
+    path.write_text(json.dumps(info))
+    return mtwin.load(path)
+
+
+def operating_record(twin, data, seed=0):
+    """Forces and moving axes of `data` with the response `twin` predicts (+ 1 % noise)."""
+    poses = np.column_stack([data["x"], data["y"], data["z"]])
+    f = np.column_stack([data["fx"], data["fy"]])
+    y = twin.simulate(data["t"], f, poses)
+    y = y + 0.01 * np.std(y) * np.random.default_rng(seed).standard_normal(y.shape)
+    return mtwin.record(data["t"], f, y, poses=poses, inputs="xy", outputs="xy")
+
+
+def write_record(rec, path):
+    names = list(rec)
+    np.savetxt(path, np.column_stack([rec[n] for n in names]), delimiter=",", header=",".join(names),
+               comments="", fmt="%.17g")
+
+
 def test_refit_equals_cli_and_keeps_history(pkg, built, tmp_path):
-    run(MTWIN, "--quiet", "refit", "--twin", built["dir"] / "twin.json", built["dir"] / "moving.csv",
-        "--method", "modal", "--force", "--out", tmp_path / "t2.json")
+    worn = changed(pkg["cli"], 0.97, tmp_path / "worn.json")
+    rec = operating_record(worn, built["data"])
+    write_record(rec, tmp_path / "op.csv")
+    run(MTWIN, "--quiet", "refit", "--twin", built["dir"] / "twin.json", tmp_path / "op.csv",
+        "--out", tmp_path / "t2.json")
     ref = mtwin.load(tmp_path / "t2.json")
-    new = pkg["cli"].refit(built["dir"] / "moving.csv", method="modal", force=True)
+    new = pkg["cli"].refit(rec)
     assert len(new.history) == len(pkg["cli"].history) + 1 == len(ref.history)
     assert rel_dev(models(new.info), models(ref.info)) <= 1e-12
-    assert set(new.report) >= {"updated", "drift_fit_pct", "modes"}
+    assert new.report["updated"] and new.report["drift_fit_pct"] < 95
     assert len(pkg["cli"].history) == 1  # the old twin is unchanged
 
 
@@ -140,7 +168,12 @@ def test_save_load_export(pkg, built, tmp_path):
                        output_interval=dt, input=sig, output=["dx", "dy"])
     y = twin.simulate(data["t"], np.column_stack([data["fx"], data["fy"]]), POSE)
     n = min(len(res), len(y))
-    assert rel_dev(res["dx"][:n], y[:n, 0]) < 1e-9
+    # fmpy records the outputs before it applies the next inputs: only the direct
+    # feedthrough differs from Twin.simulate (test_fmu.py's master loop checks equality)
+    assert rel_dev(res["dx"][:n], y[:n, 0]) < 1e-3
+    cli = simulate_fmu(str(tmp_path / "cli.fmu"), start_time=0.0, stop_time=data["t"][-1], step_size=dt,
+                       output_interval=dt, input=sig, output=["dx", "dy"])
+    np.testing.assert_array_equal(res["dx"], cli["dx"])
 
 
 def test_bad_inputs_raise(pkg, tmp_path):
@@ -167,7 +200,7 @@ def test_bad_inputs_raise(pkg, tmp_path):
         mtwin.frf(bad_t, np.ones(100), np.ones(100))
     with pytest.raises(mtwin.BadInputError, match="not finite"):
         mtwin.frf(t, np.full(100, np.nan), np.ones(100))
-    with pytest.raises(mtwin.BadInputError, match="unknown"):
+    with pytest.raises(mtwin.BadInputError, match="no force column"):
         mtwin.identify([{"t": t}])
     with pytest.raises(mtwin.BadInputError, match="no force column"):
         mtwin._mtwin.frf([{"t": t, "dx": np.ones(100)}])
