@@ -410,6 +410,13 @@ fn lobes<'py>(
     Ok(d)
 }
 
+/// What [`PyTwin::simulate`] returns: times, displacement (samples × 3), output axes.
+type Simulated<'py> = (
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, numpy::PyArray2<f64>>,
+    Vec<String>,
+);
+
 /// A twin (the command line's twin file in memory).
 #[pyclass(name = "Twin", module = "mtwin._mtwin", frozen)]
 #[derive(Debug)]
@@ -484,11 +491,7 @@ impl PyTwin {
         py: Python<'py>,
         record: &Bound<'py, PyAny>,
         hold: &str,
-    ) -> PyResult<(
-        Bound<'py, PyArray1<f64>>,
-        Bound<'py, numpy::PyArray2<f64>>,
-        Vec<String>,
-    )> {
+    ) -> PyResult<Simulated<'py>> {
         let hold = match hold {
             "zoh" => Hold::Zoh,
             "foh" => Hold::Foh,
