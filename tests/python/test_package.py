@@ -37,16 +37,6 @@ def models(info):
     return np.concatenate([np.ravel(np.asarray(o, dtype=float)) for o in out])
 
 
-@pytest.fixture(scope="session")
-def pkg(built):
-    """The twin identified by the package from the conftest campaign, with the same options
-    as the command line's twin.json."""
-    campaign = sorted((built["dir"] / "campaign").glob("*.csv"))
-    twin = mtwin.identify(campaign, fmin=30, fmax=2500)
-    cli = mtwin.load(built["dir"] / "twin.json")
-    return {"twin": twin, "cli": cli, "campaign": campaign}
-
-
 def test_identify_equals_cli(pkg):
     a, b = models(pkg["twin"].info), models(pkg["cli"].info)
     assert a.shape == b.shape
