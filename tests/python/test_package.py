@@ -233,3 +233,13 @@ def test_gil_released_during_identify(pkg):
     th.join()
     inside = [x for x in ticks if t0 < x < t1]
     assert t1 - t0 < 0.05 or len(inside) >= 3
+
+
+def test_quickstart_example(tmp_path):
+    """examples/python/quickstart.py: real impact data -> twin -> FMU in fmpy -> figure."""
+    pytest.importorskip("matplotlib")
+    import quickstart
+
+    dev = quickstart.main(str(tmp_path / "q.png"))
+    assert (tmp_path / "q.png").stat().st_size > 10_000
+    assert dev < 1e-3
