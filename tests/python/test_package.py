@@ -136,6 +136,18 @@ def test_refit_equals_cli_and_keeps_history(pkg, built, tmp_path):
     assert len(pkg["cli"].history) == 1  # the old twin is unchanged
 
 
+def test_diagnose_equals_cli(pkg, built, tmp_path):
+    worn = changed(pkg["cli"], 0.97, tmp_path / "worn.json")
+    write_record(operating_record(worn, built["data"], seed=3), tmp_path / "op.csv")
+    run(MTWIN, "--quiet", "diagnose", "--twin", built["dir"] / "twin.json", tmp_path / "op.csv",
+        "--out", tmp_path / "diag")
+    ref = json.loads((tmp_path / "diag" / "diagnosis.json").read_text())
+    got = pkg["cli"].diagnose(tmp_path / "op.csv")
+    assert got.result == ref
+    ext = mtwin.load(tmp_path / "diag" / ref["extended_twin"])
+    assert rel_dev(models(got.extended.info), models(ext.info)) <= 1e-12
+
+
 def test_save_load_export(pkg, built, tmp_path):
     from fmpy import read_model_description, simulate_fmu
 
