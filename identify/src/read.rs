@@ -1098,6 +1098,51 @@ mod tests {
     use super::*;
 
     #[test]
+    fn columns_give_the_record_of_the_same_file() {
+        let n = 40;
+        let t: Vec<f64> = (0..n).map(|i| i as f64 / 1000.0).collect();
+        let fx: Vec<f64> = (0..n).map(|i| (i as f64 * 0.7).sin()).collect();
+        let dx: Vec<f64> = (0..n).map(|i| (i as f64 * 0.3).cos() * 1e-6).collect();
+        let mut text = String::from("t,fx,dx,q\n");
+        for i in 0..n {
+            text.push_str(&format!("{},{},{},0\n", t[i], fx[i], dx[i]));
+        }
+        let src = Path::new("mem");
+        let (file, wf) = parse_timeseries_with_warnings(&text, src).unwrap();
+        let cols = vec![
+            ("t".to_string(), t.clone()),
+            ("fx".to_string(), fx.clone()),
+            ("dx".to_string(), dx),
+            ("q".to_string(), vec![0.0; n]),
+        ];
+        let (mem, wm) = timeseries_from_columns(src, cols).unwrap();
+        assert_eq!(file, mem);
+        assert_eq!(wf.len(), 1);
+        assert_eq!(wm.len(), 1);
+        let short = vec![
+            ("t".to_string(), t.clone()),
+            ("fx".to_string(), fx[1..].to_vec()),
+        ];
+        let e = timeseries_from_columns(src, short).unwrap_err().to_string();
+        assert!(e.contains("column 'fx'") && e.contains("39 samples"), "{e}");
+        let mut nan = fx.clone();
+        nan[5] = f64::NAN;
+        let e = timeseries_from_columns(src, vec![("t".into(), t.clone()), ("fx".into(), nan)])
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with("mem:6 column 'fx'") && e.contains("not finite"),
+            "{e}"
+        );
+        let mut back = t.clone();
+        back[10] = back[9];
+        let e = timeseries_from_columns(src, vec![("t".into(), back), ("fx".into(), fx)])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("does not increase"), "{e}");
+    }
+
+    #[test]
     fn durations_read_as_people_write_them() {
         assert_eq!(seconds_text(2.0000000000000018e-3), "2 ms");
         assert_eq!(seconds_text(1.0204e-3), "1.02 ms");

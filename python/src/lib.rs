@@ -311,6 +311,9 @@ fn identify_twin<'py>(
         .detach(|| identify_campaign(&series, &opts, &|_, _| {}))
         .map_err(|e| py_err(Some("identification"), e))?;
     res.twin.provenance.command = command.to_string();
+    if fmax.is_some() {
+        identify::campaign::drop_automatic_band_hint(&mut res.warnings);
+    }
     warnings.extend(res.warnings);
     Ok((PyTwin { inner: res.twin }, warnings))
 }
