@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Creates .venv with the pinned Python packages the FMU tests need (fmpy, pytest,
-# numpy; libcosimpy as an optional second importer). Idempotent; fast when set up.
+# numpy), the Python package's build (maturin), its fleet example (dask, distributed) and
+# quickstart figure (matplotlib); libcosimpy as an optional second importer. Idempotent;
+# fast when set up. The package itself: scripts/build-wheel.sh --install.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 req=tests/python/requirements.txt

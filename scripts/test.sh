@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Every test of mtwin, from a fresh clone: formatting, lints, Rust tests, docs, and the
-# FMU in real importers (fmpy, libcosimpy) from a pinned Python venv this script sets up.
+# FMU in real importers (fmpy, libcosimpy) and the Python package `mtwin` (its wheel built
+# and installed) from a pinned Python venv this script sets up.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ./scripts/setup-rust.sh
@@ -12,7 +13,8 @@ echo "== cargo test"
 cargo test --workspace
 echo "== cargo doc"
 RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps
-echo "== FMU in real importers (pytest: fmpy, libcosimpy)"
+echo "== FMU in real importers (pytest: fmpy, libcosimpy), the Python package, its fleet on Dask"
 ./scripts/setup-python.sh
 cargo build --release --workspace --bins --examples
+./scripts/build-wheel.sh --install
 .venv/bin/python -m pytest -q tests/python

@@ -527,6 +527,16 @@ pub struct MeasuredFrf {
     pub facts: EstimateFacts,
 }
 
+/// Drops the FRF estimate's hint about identify's automatic band from `warnings`: it
+/// does not apply when the caller gave the band's top (`--fmax`).
+pub fn drop_automatic_band_hint(warnings: &mut [String]) {
+    for w in warnings {
+        if let Some(i) = w.find(" (identify's automatic band stops there)") {
+            w.truncate(i);
+        }
+    }
+}
+
 /// Identifies a twin from a measurement campaign (one or many poses).
 ///
 /// `progress(done, total)` is called as poses finish (from worker threads).

@@ -13,6 +13,28 @@ use crate::simulate::{Hold, Simulator};
 use crate::twin::Twin;
 use std::f64::consts::PI;
 
+/// Refuses a record with no force column that any of `channels` (a twin's) responds to:
+/// its simulation would be all zeros.
+pub fn check_force_columns(
+    channels: &[crate::axis::Channel],
+    ts: &crate::timeseries::TimeSeries,
+) -> crate::Result<()> {
+    let inputs: Vec<_> = channels.iter().map(|c| c.input).collect();
+    if inputs.iter().any(|i| ts.force(*i).is_some()) {
+        return Ok(());
+    }
+    Err(crate::Error::BadInput(format!(
+        "{}: no force column the twin responds to (the twin's inputs are {}); add f{} to the file",
+        ts.source,
+        inputs
+            .iter()
+            .map(|i| format!("f{i}"))
+            .collect::<Vec<_>>()
+            .join(", "),
+        inputs.first().copied().unwrap_or(crate::axis::Axis::X)
+    )))
+}
+
 /// Simulates `twin` (with its extensions) for sampled forces at sampled poses.
 /// `t0` is the absolute time of sample 0 (for disturbances).
 pub fn simulate_extended(

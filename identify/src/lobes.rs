@@ -386,6 +386,34 @@ fn zoa_grid(model: &ModalModel) -> Vec<f64> {
     (0..n).map(|i| lo * ratio.powi(i as i32)).collect()
 }
 
+/// `n` spindle speeds from `lo` to `hi` rpm, log-spaced (`[lo]` when `n <= 1`): the grid
+/// of `mtwin lobes`.
+pub fn log_speeds(lo: f64, hi: f64, n: usize) -> Vec<f64> {
+    if n <= 1 {
+        return vec![lo];
+    }
+    let r = (hi / lo).powf(1.0 / (n - 1) as f64);
+    (0..n).map(|i| lo * r.powi(i as i32)).collect()
+}
+
+/// The tool-tip model of a lobe diagram: `model` with a rigid (zero) `xx` or `yy`
+/// channel added where it has none, and the channels so added (for a note to the user).
+pub fn with_rigid_tool_tip(mut model: ModalModel) -> (ModalModel, Vec<Channel>) {
+    let mut added = Vec::new();
+    for axis in [Axis::X, Axis::Y] {
+        let ch = Channel::new(axis, axis);
+        if model.channel_index(ch).is_none() {
+            model.channels.push(crate::model::ChannelModel {
+                channel: ch,
+                num: vec![crate::model::ModeNum { b0: 0.0, b1: 0.0 }; model.modes.len()],
+                d: 0.0,
+            });
+            added.push(ch);
+        }
+    }
+    (model, added)
+}
+
 /// Zero-order (Altintas–Budak) stability lobes at the requested spindle speeds.
 ///
 /// The chatter frequency is scanned from half the lowest to twice the highest mode

@@ -258,8 +258,76 @@ pub fn parse_timeseries_with_warnings(
         }
     }
 
+    let ts = assemble(file, &header, cols, &row_lines, comments)?;
+    Ok((ts, warnings))
+}
+
+/// A record from columns in memory (the Python package's arrays), named as in the header
+/// of a time-series CSV (`t`, `fx`, `dx`, `ax`, `x`, ...; docs/formats.md): the same
+/// checks and the same record as [`parse_timeseries_with_warnings`] on a file with these
+/// columns. `source` names the record in messages, where sample `i` (0-based) is "line"
+/// `i + 1`. Returns the warnings (unknown columns ignored) as well.
+pub fn timeseries_from_columns(
+    source: &Path,
+    columns: Vec<(String, Vec<f64>)>,
+) -> Result<(TimeSeries, Vec<String>)> {
+    let file = source;
+    let mut warnings = Vec::new();
+    let names: Vec<&str> = columns.iter().map(|(n, _)| n.as_str()).collect();
+    if let Some(bad) = names
+        .iter()
+        .find(|n| n.contains(',') || n.trim().is_empty())
+    {
+        return Err(Error::bad_file(
+            file,
+            0,
+            None,
+            format!(
+                "'{bad}' is not a column name (t, fx, fy, fz, ax, ay, az, dx, dy, dz, x, y, z)"
+            ),
+        ));
+    }
+    let header = Header::parse(0, &names.join(","), file, &mut warnings)?;
+    let n = columns.iter().map(|(_, c)| c.len()).max().unwrap_or(0);
+    for (name, col) in &columns {
+        if col.len() != n {
+            return Err(Error::bad_file(
+                file,
+                0,
+                Some(name),
+                format!("{} samples, but another column has {n}; every column needs one value per sample", col.len()),
+            ));
+        }
+        if let Some(i) = col.iter().position(|v| !v.is_finite()) {
+            return Err(Error::bad_file(
+                file,
+                i + 1,
+                Some(name),
+                format!("value {} is not finite (NaN or Inf); replace it by a measured number or cut the record before it", col[i]),
+            ));
+        }
+    }
+    let cols: Vec<Vec<f64>> = columns
+        .into_iter()
+        .zip(&header.roles)
+        .map(|((_, c), r)| if *r == Role::Ignored { Vec::new() } else { c })
+        .collect();
+    let row_lines: Vec<usize> = (1..=n).collect();
+    let ts = assemble(file, &header, cols, &row_lines, Vec::new())?;
+    Ok((ts, warnings))
+}
+
+/// The record from the parsed columns `cols` of `header` (data row `i` at line
+/// `row_lines[i]`): at least [`MIN_SAMPLES`] rows, time increasing and uniformly sampled.
+fn assemble(
+    file: &Path,
+    header: &Header,
+    cols: Vec<Vec<f64>>,
+    row_lines: &[usize],
+    comments: Vec<String>,
+) -> Result<TimeSeries> {
     let n = row_lines.len();
-    check_row_count(file, &header, n)?;
+    check_row_count(file, header, n)?;
     let t = &cols[header.time_col];
     let tname = header.time_name();
     for i in 1..n {
@@ -311,7 +379,7 @@ pub fn parse_timeseries_with_warnings(
             Role::Time | Role::Ignored => {}
         }
     }
-    Ok((ts, warnings))
+    Ok(ts)
 }
 
 /// What a line of a time-series CSV is.
@@ -1028,6 +1096,51 @@ pub fn accelerance_to_receptance(points: &[(f64, Complex64)], channel: Channel) 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn columns_give_the_record_of_the_same_file() {
+        let n = 40;
+        let t: Vec<f64> = (0..n).map(|i| i as f64 / 1000.0).collect();
+        let fx: Vec<f64> = (0..n).map(|i| (i as f64 * 0.7).sin()).collect();
+        let dx: Vec<f64> = (0..n).map(|i| (i as f64 * 0.3).cos() * 1e-6).collect();
+        let mut text = String::from("t,fx,dx,q\n");
+        for i in 0..n {
+            text.push_str(&format!("{},{},{},0\n", t[i], fx[i], dx[i]));
+        }
+        let src = Path::new("mem");
+        let (file, wf) = parse_timeseries_with_warnings(&text, src).unwrap();
+        let cols = vec![
+            ("t".to_string(), t.clone()),
+            ("fx".to_string(), fx.clone()),
+            ("dx".to_string(), dx),
+            ("q".to_string(), vec![0.0; n]),
+        ];
+        let (mem, wm) = timeseries_from_columns(src, cols).unwrap();
+        assert_eq!(file, mem);
+        assert_eq!(wf.len(), 1);
+        assert_eq!(wm.len(), 1);
+        let short = vec![
+            ("t".to_string(), t.clone()),
+            ("fx".to_string(), fx[1..].to_vec()),
+        ];
+        let e = timeseries_from_columns(src, short).unwrap_err().to_string();
+        assert!(e.contains("column 'fx'") && e.contains("39 samples"), "{e}");
+        let mut nan = fx.clone();
+        nan[5] = f64::NAN;
+        let e = timeseries_from_columns(src, vec![("t".into(), t.clone()), ("fx".into(), nan)])
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with("mem:6 column 'fx'") && e.contains("not finite"),
+            "{e}"
+        );
+        let mut back = t.clone();
+        back[10] = back[9];
+        let e = timeseries_from_columns(src, vec![("t".into(), back), ("fx".into(), fx)])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("does not increase"), "{e}");
+    }
 
     #[test]
     fn durations_read_as_people_write_them() {

@@ -122,11 +122,7 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
     if a.fmax.is_some() {
         // the estimate's hint about identify's automatic band does not apply when the
         // band's top is given
-        for w in &mut res.warnings {
-            if let Some(i) = w.find(" (identify's automatic band stops there)") {
-                w.truncate(i);
-            }
-        }
+        identify::campaign::drop_automatic_band_hint(&mut res.warnings);
     }
     out.warnings(&res.warnings);
     let twin = &res.twin;

@@ -3,10 +3,11 @@
 use super::{check_output_not_input, parse_pose, BadInput, Output};
 use crate::report::{self, Scale, Series};
 use anyhow::Result;
-use identify::axis::{Axis, Channel};
 use identify::interpolate::TwinEvaluator;
-use identify::lobes::{lobes_sd, lobes_zoa, write_lobes_csv, Cut, LobePoint, SdOptions, Tool};
-use identify::model::{ChannelModel, ModeNum};
+use identify::lobes::{
+    lobes_sd, lobes_zoa, log_speeds, with_rigid_tool_tip, write_lobes_csv, Cut, LobePoint,
+    SdOptions, Tool,
+};
 use identify::twin::Twin;
 use std::path::{Path, PathBuf};
 
@@ -53,14 +54,6 @@ pub struct Args {
     pub plot: Option<PathBuf>,
 }
 
-fn speeds(lo: f64, hi: f64, n: usize) -> Vec<f64> {
-    if n <= 1 {
-        return vec![lo];
-    }
-    let r = (hi / lo).powf(1.0 / (n - 1) as f64);
-    (0..n).map(|i| lo * r.powi(i as i32)).collect()
-}
-
 /// The semi-discretisation's own file next to `out`: `L.csv` → `L.sd.csv`.
 fn sd_csv_path(out: &Path) -> PathBuf {
     let stem = out.file_stem().unwrap_or_default().to_string_lossy();
@@ -85,21 +78,13 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
             identify::axis::PoseText(a.at)
         ));
     }
-    let mut model = ev.model_at(a.at).clone();
-    for axis in [Axis::X, Axis::Y] {
-        let ch = Channel::new(axis, axis);
-        if model.channel_index(ch).is_none() {
-            out.say(format!(
-                "note: the twin has no {} channel; the tool is taken as rigid in {}",
-                ch.name(),
-                axis
-            ));
-            model.channels.push(ChannelModel {
-                channel: ch,
-                num: vec![ModeNum { b0: 0.0, b1: 0.0 }; model.modes.len()],
-                d: 0.0,
-            });
-        }
+    let (model, rigid) = with_rigid_tool_tip(ev.model_at(a.at).clone());
+    for ch in rigid {
+        out.say(format!(
+            "note: the twin has no {} channel; the tool is taken as rigid in {}",
+            ch.name(),
+            ch.input
+        ));
     }
     let tool = Tool {
         teeth: a.cut.teeth,
@@ -112,13 +97,13 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
         kt: a.cut.kt,
         kr: a.cut.kr,
     };
-    let rpm = speeds(a.rpm_min, a.rpm_max, a.speeds);
+    let rpm = log_speeds(a.rpm_min, a.rpm_max, a.speeds);
     let t0 = std::time::Instant::now();
     let zoa = lobes_zoa(&model, &tool, &cut, &rpm)?;
     let t_zoa = t0.elapsed();
     let sd_speeds = a.sd_speeds.unwrap_or(a.speeds);
     let (sd, t_sd) = if sd_speeds > 0 {
-        let rpm_sd = speeds(a.rpm_min, a.rpm_max, sd_speeds);
+        let rpm_sd = log_speeds(a.rpm_min, a.rpm_max, sd_speeds);
         let t1 = std::time::Instant::now();
         let opts = SdOptions {
             steps: a.sd_steps.max(2),

@@ -1,6 +1,6 @@
 //! `mtwin simulate`.
 
-use super::{read_series, BadInput, Output};
+use super::{read_series, Output};
 use anyhow::Result;
 use identify::interpolate::{simulate_twin, TwinEvaluator};
 use identify::simulate::{force_rows, Hold};
@@ -33,16 +33,7 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
     let twin = Twin::load(&a.twin)?;
     let mut ev = TwinEvaluator::new(&twin)?;
     let ts = read_series(std::slice::from_ref(&a.data), out)?.remove(0);
-    let inputs: Vec<_> = ev.channels().iter().map(|c| c.input).collect();
-    if !inputs.iter().any(|i| ts.force(*i).is_some()) {
-        return Err(BadInput(format!(
-            "{}: no force column the twin responds to (the twin's inputs are {}); add f{} to the file",
-            a.data.display(),
-            inputs.iter().map(|i| format!("f{i}")).collect::<Vec<_>>().join(", "),
-            inputs[0]
-        ))
-        .into());
-    }
+    identify::extended::check_force_columns(ev.channels(), &ts)?;
     let hold = match a.hold.as_str() {
         "foh" => Hold::Foh,
         "band" => Hold::BandLimited,

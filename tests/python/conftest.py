@@ -42,3 +42,14 @@ def built(tmp_path_factory):
     data = load_csv(d / "moving.csv")
     pred = load_csv(d / "pred.csv")
     return {"dir": d, "fmu": str(d / "twin.fmu"), "fmu3": str(d / "twin3.fmu"), "data": data, "pred": pred}
+
+
+@pytest.fixture(scope="session")
+def pkg(built):
+    """The twin identified by the package from the conftest campaign, with the same options
+    as the command line's twin.json."""
+    mtwin = pytest.importorskip("mtwin", reason="the package is not installed: scripts/build-wheel.sh --install")
+    campaign = sorted((built["dir"] / "campaign").glob("*.csv"))
+    twin = mtwin.identify(campaign, fmin=30, fmax=2500)
+    cli = mtwin.load(built["dir"] / "twin.json")
+    return {"twin": twin, "cli": cli, "campaign": campaign}
