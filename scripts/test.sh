@@ -9,8 +9,10 @@ echo "== cargo fmt --check"
 cargo fmt --all -- --check
 echo "== cargo clippy"
 cargo clippy --workspace --all-targets -- -D warnings
-echo "== cargo test"
-cargo test --workspace
+# release: the build the importers' tests below use too, and the CLI tests run identify
+# on real-size data (the debug build cost ~8 of the suite's 20 minutes)
+echo "== cargo test (release)"
+cargo test --workspace --release
 echo "== cargo doc"
 RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps
 echo "== FMU in real importers (pytest: fmpy, libcosimpy), the Python package, its fleet on Dask"
