@@ -431,7 +431,7 @@ pub(crate) unsafe fn deserialize_state(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use identify::axis::Axis;
+    use mtwin_core::axis::Axis;
     use vmachine::structure::ModalMachine;
 
     /// A call that panics returns the fatal status and poisons the instance: every later

@@ -105,7 +105,7 @@ pub fn upsample(x: &[[f64; 3]], factor: usize) -> Vec<[f64; 3]> {
 /// fine_dt, coarse_index_of_fine_sample)` simulates the upsampled record step by step
 /// (a [`Simulator`] with [`Hold::BandLimited`] steps as [`Hold::Foh`]); its response is
 /// taken back at the original samples.
-pub(crate) fn run_band_limited(
+pub fn run_band_limited(
     forces: &[[f64; 3]],
     dt: f64,
     run: impl FnOnce(&[[f64; 3]], f64, &dyn Fn(usize) -> usize) -> Vec<[f64; 3]>,
