@@ -9,12 +9,12 @@
 
 use crate::resources::{utc_iso, FmuTwin};
 use crate::slave::{metres, start_pose, variables, Var};
-use mtwin_core::axis::Axis;
-use mtwin_core::twin::Twin;
 use model_description::{
     BaseUnit, Category, DefaultExperiment, LogCategories, ModelDescription, Real, Unit,
     UnitDefinitions,
 };
+use mtwin_core::axis::Axis;
+use mtwin_core::twin::Twin;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -345,7 +345,9 @@ fn library(embedded: Option<&[u8]>) -> Result<std::borrow::Cow<'_, [u8]>, mtwin_
         Some(b) if std::env::var_os("MTWIN_FMU_LIB").is_none() => std::borrow::Cow::Borrowed(b),
         _ => {
             let lib = find_library()?;
-            std::borrow::Cow::Owned(std::fs::read(&lib).map_err(|e| mtwin_core::Error::io(&lib, e))?)
+            std::borrow::Cow::Owned(
+                std::fs::read(&lib).map_err(|e| mtwin_core::Error::io(&lib, e))?,
+            )
         }
     })
 }

@@ -37,6 +37,7 @@ pub mod campaign;
 pub mod diagnose;
 mod eigen;
 mod lanes;
+mod linalg;
 pub mod lobes;
 pub mod modal_update;
 pub mod operating;

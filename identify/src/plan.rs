@@ -17,9 +17,9 @@
 //!   out of the fit (it cannot steer the common poles) and reported as not identified.
 //!   Without coherence (measured FRF files, one full-record DFT) every channel is used.
 
-pub use mtwin_core::plan::{Bands, ChannelDecision, MeasuredAs, PosePlan};
 use crate::axis::Channel;
 use crate::frf::Frf;
+pub use mtwin_core::plan::{Bands, ChannelDecision, MeasuredAs, PosePlan};
 
 /// A channel is informative when its coherence is significant on at least this fraction
 /// of the band's lines.
