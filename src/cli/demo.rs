@@ -104,7 +104,7 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
         .par_iter()
         .map(|(i, p, ax)| -> Result<PathBuf> {
             let ts = impact_record(&machine, *p, *ax, &AXES, 3, &daq, 100 + *i as u64);
-            let f = data.join(format!("campaign/pose{i:02}_hammer_{ax}.csv"));
+            let f = data.join(format!("campaign/pose{:02}_hammer_{ax}.csv", i + 1));
             write_timeseries(&f, &ts)?;
             Ok(f)
         })
@@ -134,6 +134,7 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
             pose_tol: 1e-3,
             weighting: "auto".into(),
             report: Some(dir.join("identify.html")),
+            frf_plot: super::identify_report::FrfView::MagPhase,
             name: "demo machine".into(),
             frf_in: super::frf_io::FrfInputArgs {
                 pose: None,

@@ -3,7 +3,7 @@
 //! modes that changed, how the change spread over the poses, and the whole history with
 //! the mode frequencies over the machine's life.
 
-use crate::report::{esc, figure, page, plot, Figure, Panel, Scale, Series};
+use crate::report::{esc, figure, page, phase_breaks, plot, Figure, Panel, Scale, Series};
 use identify::axis::PoseText;
 use identify::model::ModalModel;
 use identify::operating::operating_spectra;
@@ -191,7 +191,11 @@ fn frf_section(b: &mut String, old: &Twin, new: &Twin, rep: &RefitReport, series
         let ph = |v: &[num_complex::Complex64]| {
             v.iter().map(|c| c.arg() * 180.0 / PI).collect::<Vec<_>>()
         };
-        let (mb, ma, pb, pa) = (mag(&before), mag(&after), ph(&before), ph(&after));
+        let (mb, ma) = (mag(&before), mag(&after));
+        let ((fb, pb), (fa, pa)) = (
+            phase_breaks(&f, &ph(&before)),
+            phase_breaks(&f, &ph(&after)),
+        );
         let name = ch.name();
         let mags = [
             Series {
@@ -226,14 +230,14 @@ fn frf_section(b: &mut String, old: &Twin, new: &Twin, rep: &RefitReport, series
             },
             Series {
                 label: "",
-                x: &f,
+                x: &fb,
                 y: &pb,
                 color: 2,
                 points: false,
             },
             Series {
                 label: "",
-                x: &f,
+                x: &fa,
                 y: &pa,
                 color: 1,
                 points: false,
@@ -249,7 +253,7 @@ fn frf_section(b: &mut String, old: &Twin, new: &Twin, rep: &RefitReport, series
                 Panel::new("|H| [µm/N]", Scale::Log, &mags, 260),
                 Panel {
                     yrange: Some((-190.0, 190.0)),
-                    ..Panel::new("phase [°]", Scale::Lin, &phs, 140)
+                    ..Panel::new("phase [°]", Scale::Phase, &phs, 140)
                 },
             ],
         }));
@@ -337,14 +341,16 @@ fn history_section(b: &mut String, twin: &Twin, pose: [f64; 3]) {
     let _ = writeln!(
         b,
         "<h2>History</h2><p>Every change the twin went through; each entry keeps the pose \
-         models as they were before it, so no earlier model is lost.</p><table><tr><th>#</th>\
+         models as they were before it, so no earlier model is lost. Entries are numbered \
+         from 1 (entry 1: the identification).</p><table><tr><th>entry</th>\
          <th>time (UTC)</th><th>kind</th><th>files</th><th>what changed</th></tr>"
     );
     for (i, h) in twin.history.iter().enumerate() {
         let _ = writeln!(
             b,
-            "<tr><td>{i}</td><td>{}</td><td>{}</td><td style=\"text-align:left\">{}</td>\
+            "<tr><td>{}</td><td>{}</td><td>{}</td><td style=\"text-align:left\">{}</td>\
              <td style=\"text-align:left\">{}</td></tr>",
+            i + 1,
             utc(h.unix_time),
             esc(&h.kind),
             esc(&h.files.join(", ")),
@@ -372,7 +378,8 @@ fn history_section(b: &mut String, twin: &Twin, pose: [f64; 3]) {
         return;
     }
     let n_modes = states.iter().map(|m| m.modes.len()).min().unwrap_or(0);
-    let x: Vec<f64> = (0..states.len()).map(|i| i as f64).collect();
+    // state k (from 1) is the twin after history entry k
+    let x: Vec<f64> = (1..=states.len()).map(|i| i as f64).collect();
     let ys: Vec<Vec<f64>> = (0..n_modes)
         .map(|k| {
             states
@@ -398,7 +405,7 @@ fn history_section(b: &mut String, twin: &Twin, pose: [f64; 3]) {
         .collect();
     b.push_str(&plot(
         "natural frequencies at the operating pose over the twin's life",
-        "state (0 = identified, then after each refit)",
+        "after history entry (1 = identified, then each refit)",
         "change from the identified twin [%]",
         &series,
         Scale::Lin,
