@@ -46,6 +46,37 @@ pub enum Scale {
     Log,
     /// A phase in degrees: linear, ticks at the multiples of 90°, grid at 45°.
     Phase,
+    /// Counting numbers (pose, history entry): linear, ticks only at whole numbers.
+    Index,
+}
+
+/// A linear axis whose ticks are whole numbers (every 1, 2, 5, 10, ... as room allows).
+struct IndexCoord(RangedCoordf64);
+
+impl Ranged for IndexCoord {
+    type FormatOption = plotters::coord::ranged1d::DefaultFormatting;
+    type ValueType = f64;
+    fn map(&self, v: &f64, limit: (i32, i32)) -> i32 {
+        self.0.map(v, limit)
+    }
+    fn key_points<H: plotters::coord::ranged1d::KeyPointHint>(&self, hint: H) -> Vec<f64> {
+        let r = self.0.range();
+        let n = hint.max_num_points().max(1) as f64;
+        let step = [1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0]
+            .into_iter()
+            .find(|s| (r.end - r.start) / s <= n)
+            .unwrap_or(200.0);
+        let mut v = (r.start / step).ceil() * step;
+        let mut out = Vec::new();
+        while v <= r.end + 1e-9 {
+            out.push(v);
+            v += step;
+        }
+        out
+    }
+    fn range(&self) -> std::ops::Range<f64> {
+        self.0.range()
+    }
 }
 
 /// A linear axis whose ticks are the multiples of 90 (a phase in degrees).
@@ -218,7 +249,7 @@ fn padded(r: (f64, f64), scale: Scale) -> (f64, f64) {
             }
             (lo / 1.25, hi * 1.25)
         }
-        Scale::Lin | Scale::Phase => {
+        Scale::Lin | Scale::Phase | Scale::Index => {
             if hi == lo {
                 let d = if lo == 0.0 { 1.0 } else { 0.1 * lo.abs() };
                 lo -= d;
@@ -357,12 +388,13 @@ where
                 .map(|(x, y)| (*x, *y))
                 .collect();
         if s.points {
-            let _ = chart
-                .draw_series(pts.iter().map(|p| Circle::new(*p, 2, c.filled())))
-                .map(|a| {
+            let drawn = chart.draw_series(pts.iter().map(|p| Circle::new(*p, 2, c.filled())));
+            if !s.label.is_empty() {
+                let _ = drawn.map(|a| {
                     a.label(s.label)
                         .legend(move |(x, y)| Circle::new((x + 10, y), 3, c.filled()))
                 });
+            }
         } else {
             // a break in the data (a NaN or a value off a log axis) breaks the line
             let mut runs: Vec<Vec<(f64, f64)>> = vec![Vec::new()];
@@ -378,7 +410,7 @@ where
             let mut first = true;
             for run in runs.into_iter().filter(|r| !r.is_empty()) {
                 let drawn = chart.draw_series(LineSeries::new(run, c.stroke_width(1)));
-                if first {
+                if first && !s.label.is_empty() {
                     let _ = drawn.map(|a| {
                         a.label(s.label).legend(move |(x, y)| {
                             PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2))
@@ -408,6 +440,13 @@ where
     match p.yscale {
         Scale::Log => draw_panel(area, xr, LogCoord::from((yr.0..yr.1).log_scale()), p, place),
         Scale::Lin => draw_panel(area, xr, RangedCoordf64::from(yr.0..yr.1), p, place),
+        Scale::Index => draw_panel(
+            area,
+            xr,
+            IndexCoord(RangedCoordf64::from(yr.0..yr.1)),
+            p,
+            place,
+        ),
         Scale::Phase => draw_panel(
             area,
             xr,
@@ -460,16 +499,16 @@ pub fn figure(f: &Figure<'_>) -> String {
                 xlog: f.xscale == Scale::Log,
                 ylog: p.yscale == Scale::Log,
             };
-            if f.xscale == Scale::Log {
-                panel_with_y(
-                    &area,
-                    LogCoord::from((xr.0..xr.1).log_scale()),
-                    yr,
-                    p,
-                    place,
-                );
-            } else {
-                panel_with_y(&area, RangedCoordf64::from(xr.0..xr.1), yr, p, place);
+            match f.xscale {
+                Scale::Log => {
+                    let xr = LogCoord::from((xr.0..xr.1).log_scale());
+                    panel_with_y(&area, xr, yr, p, place)
+                }
+                Scale::Index => {
+                    let xr = IndexCoord(RangedCoordf64::from(xr.0..xr.1));
+                    panel_with_y(&area, xr, yr, p, place)
+                }
+                _ => panel_with_y(&area, RangedCoordf64::from(xr.0..xr.1), yr, p, place),
             }
         }
         let _ = root.present();
@@ -887,7 +926,7 @@ pub fn compact_svg(svg: &str) -> String {
                 out.push_str(&tag.replace(" opacity=\"1\"", ""));
             }
         }
-        if matches!(name, "svg" | "/svg") {
+        if name == "svg" {
             out.push('\n');
         }
     }
@@ -930,6 +969,67 @@ mod tests {
         assert_eq!(eng(0.01), "0.01");
         assert_eq!(eng(3e-6), "3µ");
         assert_eq!(eng(1.5e6), "1.5M");
+    }
+
+    #[test]
+    fn compacted_svg_draws_the_same_elements() {
+        let svg = "<svg width=\"10\" height=\"10\" xmlns=\"http://www.w3.org/2000/svg\">\n\
+            <line opacity=\"1\" stroke=\"#D7D7D7\" stroke-width=\"1\" x1=\"5\" y1=\"9\" x2=\"5\" y2=\"1\"/>\n\
+            <line opacity=\"1\" stroke=\"#D7D7D7\" stroke-width=\"1\" x1=\"1\" y1=\"4\" x2=\"9\" y2=\"4\"/>\n\
+            <polyline fill=\"none\" opacity=\"1\" stroke=\"#000000\" stroke-width=\"1\" points=\"1,1 2,1 2,1 4,3 \"/>\n\
+            <text x=\"1\" y=\"2\" font-family=\"sans-serif\" font-size=\"11.29032258\" opacity=\"1\" fill=\"#000000\">\n100\n</text>\n\
+            <text x=\"1\" y=\"3\" font-size=\"11.29032258\">\n\n</text>\n\
+            <polyline fill=\"none\" opacity=\"1\" stroke=\"#000000\" stroke-width=\"1\" points=\"6,6 3,8 \"/>\n\
+            <circle cx=\"3\" cy=\"4\" r=\"2\" opacity=\"1\" fill=\"#141414\" stroke=\"none\" stroke-width=\"1\"/>\n\
+            <circle cx=\"5\" cy=\"2\" r=\"2\" opacity=\"1\" fill=\"#141414\" stroke=\"none\" stroke-width=\"1\"/>\n\
+            </svg>\n";
+        let c = super::compact_svg(svg);
+        assert_eq!(
+            c,
+            "<svg font-family=\"sans-serif\" width=\"10\" height=\"10\" \
+             xmlns=\"http://www.w3.org/2000/svg\">\n\
+             <path d=\"M5 9V1M1 4H9\" stroke=\"#D7D7D7\" stroke-width=\"1\" fill=\"none\"/>\
+             <path d=\"M1 1l1 0 2 2M6 6l-3 2\" stroke=\"#000000\" stroke-width=\"1\" fill=\"none\"/>\
+             <text x=\"1\" y=\"2\" font-size=\"11.3\">100</text>\
+             <path d=\"M3 4h0m2-2h0\" stroke=\"#141414\" stroke-width=\"4\" \
+             stroke-linecap=\"round\" fill=\"none\"/></svg>"
+        );
+    }
+
+    #[test]
+    fn phase_ticks_at_90_degrees_and_index_ticks_whole() {
+        use plotters::coord::ranged1d::{BoldPoints, Ranged};
+        use plotters::coord::types::RangedCoordf64;
+        let ph = super::PhaseCoord(RangedCoordf64::from(-190.0..190.0));
+        assert_eq!(
+            ph.key_points(BoldPoints(4)),
+            vec![-180.0, -90.0, 0.0, 90.0, 180.0]
+        );
+        let ix = super::IndexCoord(RangedCoordf64::from(0.5..18.5));
+        let k = ix.key_points(BoldPoints(10));
+        assert_eq!(k.first(), Some(&2.0));
+        assert!(k.iter().all(|v| v.fract() == 0.0), "{k:?}");
+        let ix = super::IndexCoord(RangedCoordf64::from(0.8..2.2));
+        assert_eq!(ix.key_points(BoldPoints(10)), vec![1.0, 2.0]);
+    }
+
+    #[test]
+    fn small_log_ticks_read_as_powers_of_ten() {
+        let f = super::tick_formatter(1.0, true);
+        assert_eq!(f(&2e-4), "2·10⁻⁴");
+        assert_eq!(f(&1e-4), "10⁻⁴");
+        assert_eq!(f(&5e-5), "5·10⁻⁵");
+        assert_eq!(f(&0.002), "0.002");
+        assert_eq!(f(&3e-4), "", "only 1, 2 and 5 of a decade are labelled");
+        assert_eq!(f(&2000.0), "2k");
+    }
+
+    #[test]
+    fn a_wrapping_phase_breaks_its_line() {
+        let (x, y) = super::phase_breaks(&[1.0, 2.0, 3.0, 4.0], &[-170.0, -179.0, 178.0, 170.0]);
+        assert_eq!(x.len(), 5);
+        assert!(y[2].is_nan() && x[2] == 2.5, "{x:?} {y:?}");
+        assert_eq!(y[3], 178.0);
     }
 
     #[test]

@@ -2,7 +2,9 @@
 //! the messages and `diagnosis.json`'s `mode_number`; poses printed as `(x, y, z) m` with
 //! three decimals; the diagnosis headline in SPEC codes and its tables without raw JSON;
 //! every pose of the campaign reachable; the lobes' jumps only where a new lobe begins
-//! (an unstable island's tip, checked against the spectral radius).
+//! (an unstable island's tip, checked against the spectral radius); an 18-pose identify
+//! report under 1.5 MB; the refit history and the demo's campaign files counted from 1;
+//! the FRFs drawn as magnitude/phase, real/imaginary or both (`--frf-plot`).
 
 mod common;
 use common::*;
@@ -102,6 +104,36 @@ fn demo_reports_number_modes_from_1_format_poses_and_show_every_pose() {
     assert_poses_formatted("identify.html", &t);
     assert_no_long_floats("identify.html", &t);
 
+    // an 18-pose report opens comfortably: the curves thinned on a log-frequency grid
+    // (peaks kept) and the SVGs compacted (6.6 MB before)
+    let size = std::fs::metadata(dir.join("identify.html")).unwrap().len();
+    assert!(
+        size < 1_500_000,
+        "identify.html of 18 poses is {size} bytes"
+    );
+    // the campaign's files count poses from 1 too
+    let names: Vec<String> = std::fs::read_dir(dir.join("data/campaign"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(
+        names.iter().any(|n| n == "pose01_hammer_x.csv"),
+        "{names:?}"
+    );
+    assert!(
+        names.iter().any(|n| n == "pose18_hammer_y.csv"),
+        "{names:?}"
+    );
+    assert!(!names.iter().any(|n| n.starts_with("pose00")), "{names:?}");
+    // the leave-one-pose-out table gives each pose its number
+    let loo = id
+        .find("<h2>Leave-one-pose-out</h2>")
+        .expect("leave-one-out table");
+    assert!(
+        id[loo..].contains("<tr><td>1</td><td>(0.000, 0.000, 0.000) m</td>"),
+        "leave-one-out rows without the pose number"
+    );
+
     // refit.html: the demo wears the third mode (index 2) and says "mode 3"
     let rf = read(&dir.join("refit.html"));
     let t = text_outside_svg(&rf);
@@ -115,6 +147,17 @@ fn demo_reports_number_modes_from_1_format_poses_and_show_every_pose() {
         "history legend not numbered from 1"
     );
     assert!(!rf.contains("mode 0"), "refit.html: mode 0");
+    // the history counts its entries from 1 (entry 1: the identification)
+    let hist = t.find("<h2>History</h2>").expect("history");
+    let first = t[hist..]
+        .find("<tr><td>")
+        .map(|i| &t[hist + i..hist + i + 12]);
+    assert_eq!(first, Some("<tr><td>1</t"), "history not numbered from 1");
+    assert!(
+        t[hist..].contains("<tr><td>2</td>"),
+        "the refit is not entry 2"
+    );
+    assert!(!t[hist..].contains("<tr><td>0</td>"), "history entry 0");
     assert_poses_formatted("refit.html", &t);
     assert_no_long_floats("refit.html", &t);
 
@@ -149,6 +192,41 @@ fn demo_reports_number_modes_from_1_format_poses_and_show_every_pose() {
         "index.html: refit method not said"
     );
     assert_poses_formatted("index.html", &text_outside_svg(&ix));
+
+    // the FRFs as the reader chooses: real and imaginary parts, or both with a switch
+    let files = [
+        dir.join("data/campaign/pose01_hammer_x.csv"),
+        dir.join("data/campaign/pose01_hammer_y.csv"),
+    ];
+    for (view, re_im, mag_phase) in [
+        ("mag-phase", false, true),
+        ("re-im", true, false),
+        ("both", true, true),
+    ] {
+        let html = d.path().join(format!("{view}.html"));
+        let o = mtwin(&[
+            "identify",
+            s(&files[0]),
+            s(&files[1]),
+            "--out",
+            s(&d.path().join(format!("{view}.json"))),
+            "--report",
+            s(&html),
+            "--frf-plot",
+            view,
+            "-q",
+        ]);
+        assert_eq!(o.status.code(), Some(0), "{view}: {}", stderr(&o));
+        let h = read(&html);
+        assert_eq!(h.contains("Re H [µm/N]"), re_im, "{view}: real part");
+        assert_eq!(h.contains("Im H [µm/N]"), re_im, "{view}: imaginary part");
+        assert_eq!(h.contains("phase [°]"), mag_phase, "{view}: phase");
+        assert_eq!(
+            h.contains("type=\"radio\""),
+            view == "both",
+            "{view}: the switch"
+        );
+    }
 
     // the refit's messages number modes from 1 too
     let o = mtwin(&[

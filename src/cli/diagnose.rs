@@ -118,8 +118,15 @@ fn details_rows(d: &serde_json::Map<String, serde_json::Value>) -> String {
             "mode_number" => "mode",
             k => k,
         };
+        // a damping ratio also as the percentage the summary says
+        let pct = match v.as_f64() {
+            Some(z) if key.contains("damping") && z.abs() < 1.0 => {
+                format!(" ({:.2} %)", 100.0 * z)
+            }
+            _ => String::new(),
+        };
         rows.push_str(&format!(
-            "<tr><th>{}</th><td>{}</td></tr>",
+            "<tr><th>{}</th><td>{}{pct}</td></tr>",
             esc(key),
             value_text(v)
         ));

@@ -561,8 +561,8 @@ pub fn identify_report(twin: &Twin, diagrams: &[StabilizationDiagram], view: Frf
             figure(&Figure {
                 title: "Tracked modes",
                 xlabel: "pose",
-                xscale: Scale::Lin,
-                xrange: None,
+                xscale: Scale::Index,
+                xrange: Some((0.5, twin.poses.len() as f64 + 0.5)),
                 width: 760,
                 panels: &[Panel::new(
                     "natural frequency [Hz]",

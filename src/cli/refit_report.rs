@@ -3,7 +3,9 @@
 //! modes that changed, how the change spread over the poses, and the whole history with
 //! the mode frequencies over the machine's life.
 
-use crate::report::{esc, figure, page, phase_breaks, plot, Figure, Panel, Scale, Series};
+use crate::report::{
+    esc, figure, legend_html, page, phase_breaks, plot, Figure, Panel, Scale, Series,
+};
 use identify::axis::PoseText;
 use identify::model::ModalModel;
 use identify::operating::operating_spectra;
@@ -336,6 +338,44 @@ fn utc(t: u64) -> String {
     format!("{} {}", &iso[..10], &iso[11..16])
 }
 
+/// The files of a history entry: up to three by name; more as their number and common
+/// folder, the names folded away.
+fn files_cell(files: &[String]) -> String {
+    if files.len() <= 3 {
+        return esc(&files.join(", "));
+    }
+    let dir = |f: &str| {
+        std::path::Path::new(f)
+            .parent()
+            .map(|p| p.display().to_string())
+            .unwrap_or_default()
+    };
+    let first = dir(&files[0]);
+    let common = files.iter().all(|f| dir(f) == first);
+    let names: Vec<String> = files
+        .iter()
+        .map(|f| {
+            if common {
+                std::path::Path::new(f)
+                    .file_name()
+                    .map_or(f.clone(), |n| n.to_string_lossy().into_owned())
+            } else {
+                f.clone()
+            }
+        })
+        .collect();
+    format!(
+        "<details><summary>{} files{}</summary>{}</details>",
+        files.len(),
+        if common {
+            format!(" in <code>{}</code>", esc(&first))
+        } else {
+            String::new()
+        },
+        esc(&names.join(", "))
+    )
+}
+
 /// The history table and the mode frequencies at `pose` over the twin's life.
 fn history_section(b: &mut String, twin: &Twin, pose: [f64; 3]) {
     let _ = writeln!(
@@ -348,12 +388,12 @@ fn history_section(b: &mut String, twin: &Twin, pose: [f64; 3]) {
     for (i, h) in twin.history.iter().enumerate() {
         let _ = writeln!(
             b,
-            "<tr><td>{}</td><td>{}</td><td>{}</td><td style=\"text-align:left\">{}</td>\
-             <td style=\"text-align:left\">{}</td></tr>",
+            "<tr><td>{}</td><td style=\"white-space:nowrap\">{}</td><td>{}</td>\
+             <td style=\"text-align:left\">{}</td><td style=\"text-align:left\">{}</td></tr>",
             i + 1,
             utc(h.unix_time),
             esc(&h.kind),
-            esc(&h.files.join(", ")),
+            files_cell(&h.files),
             esc(&h.summary)
         );
     }
@@ -403,13 +443,33 @@ fn history_section(b: &mut String, twin: &Twin, pose: [f64; 3]) {
             points: false,
         })
         .collect();
-    b.push_str(&plot(
-        "natural frequencies at the operating pose over the twin's life",
-        "after history entry (1 = identified, then each refit)",
-        "change from the identified twin [%]",
-        &series,
-        Scale::Lin,
-    ));
+    // lines with a dot per entry; the legend under the plot (inside, it would hide the
+    // lines' ends)
+    let legend: Vec<(&str, usize)> = series.iter().map(|s| (s.label, s.color)).collect();
+    let all: Vec<Series> = series
+        .iter()
+        .flat_map(|s| {
+            [false, true].map(|points| Series {
+                label: "",
+                points,
+                ..*s
+            })
+        })
+        .collect();
+    b.push_str(&figure(&Figure {
+        title: "natural frequencies at the operating pose over the twin's life",
+        xlabel: "after history entry (1 = identified, then each refit)",
+        xscale: Scale::Index,
+        xrange: Some((0.8, states.len() as f64 + 0.2)),
+        width: 760,
+        panels: &[Panel::new(
+            "change from the identified twin [%]",
+            Scale::Lin,
+            &all,
+            300,
+        )],
+    }));
+    b.push_str(&legend_html(&legend));
 }
 
 #[cfg(test)]
