@@ -241,6 +241,27 @@ fn demo_reports_number_modes_from_1_format_poses_and_show_every_pose() {
     assert_eq!(o.status.code(), Some(0), "{err}");
     assert!(err.contains("  mode 3: 180.00 Hz"), "{err}");
     assert!(err.contains("modes 3 updated"), "{err}");
+    // and its JSON gives each changed mode's number beside its index
+    let o = mtwin(&[
+        "refit",
+        "--twin",
+        s(&dir.join("twin.json")),
+        s(&dir.join("data/operating/milling_3300rpm.csv")),
+        "--out",
+        s(&d.path().join("r2.json")),
+        "--json",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let modes = v["report"]["modes"].as_array().expect("modes");
+    assert!(!modes.is_empty(), "{v}");
+    for m in modes {
+        assert_eq!(
+            m["mode_number"].as_u64(),
+            m["mode"].as_u64().map(|k| k + 1),
+            "{m}"
+        );
+    }
 }
 
 /// Reads a lobes CSV: (rpm, zoa, sd, f_zoa, f_sd) per row.

@@ -45,7 +45,7 @@ pub struct Args {
     #[arg(long, default_value = "auto", value_parser = ["auto", "coherence", "ml", "balanced", "mobility"])]
     pub weighting: String,
     /// Also write an HTML report (FRFs, coherence, stabilization diagram, modes across
-    /// the workspace) here.
+    /// the workspace) here (docs/reports.md).
     #[arg(long)]
     pub report: Option<PathBuf>,
     /// How the report draws the FRFs: mag-phase (magnitude on a log axis and phase),
