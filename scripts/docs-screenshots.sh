@@ -23,6 +23,11 @@ demo=$(cd "$demo" && pwd)
 # the same campaign's report with real and imaginary parts
 (cd "$demo" && "$mtwin" identify data/campaign --fmin 30 --fmax 2500 --frf-plot re-im \
     --out "$work/reim.json" --report "$work/identify_reim.html" -q)
+# `mtwin frf --report` on the first pose's two hammer records
+# (relative paths: the page names its files as a user typing the command would)
+ln -sfn "$demo/data" "$work/data"
+(cd "$work" && "$mtwin" frf data/campaign/pose01_hammer_x.csv data/campaign/pose01_hammer_y.csv \
+    --out frf.csv --report frf.html -q)
 shot() { "$here/screenshot-report.sh" "$1" "$work/$2.png" "$3" "${4:-1100}" >/dev/null; }
 shot "$demo/identify.html" identify 7200
 shot "$work/identify_reim.html" reim 5200
@@ -30,6 +35,7 @@ shot "$demo/refit.html" refit 5400
 shot "$demo/diagnosis/report.html" diagnosis 1400
 shot "$demo/lobes_before.svg" lobes 430 920
 shot "$demo/index.html" index 1000
+shot "$work/frf.html" frf 760
 img=$root/docs/img
 mkdir -p "$img"
 cut() { # SOURCE GEOMETRY NAME
@@ -47,3 +53,4 @@ cut refit 1100x760+0+4470 refit-history
 cut diagnosis 1100x1300+0+0 diagnosis
 cut lobes 920x430+0+0 lobes
 cut index 1100x1000+0+0 demo-index
+cut frf 1100x760+0+0 frf

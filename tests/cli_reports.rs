@@ -396,3 +396,49 @@ fn lobes_jump_only_where_a_new_lobe_begins_and_the_jump_is_real() {
         "no lobe's island tip in 2000-8000 rpm: the check checked nothing"
     );
 }
+
+/// `mtwin frf --report`: each channel's FRF with its coherence, drawn as the reader
+/// chooses, over the band where the coherence holds.
+#[test]
+fn frf_report_draws_each_channel_as_chosen() {
+    let d = tmp();
+    let data = shared_data().join("pyfrf_impact_hammer/impact_5hits.csv");
+    for (view, re_im, mag_phase) in [
+        ("mag-phase", false, true),
+        ("re-im", true, false),
+        ("both", true, true),
+    ] {
+        let html = d.path().join(format!("{view}.html"));
+        let o = mtwin(&[
+            "frf",
+            s(&data),
+            "--out",
+            s(&d.path().join(format!("{view}.csv"))),
+            "--report",
+            s(&html),
+            "--frf-plot",
+            view,
+            "--json",
+        ]);
+        assert_eq!(o.status.code(), Some(0), "{view}: {}", stderr(&o));
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        assert_eq!(v["report"].as_str(), Some(s(&html)), "{v}");
+        let h = read(&html);
+        assert!(h.contains("xx receptance"), "{view}: no xx figure");
+        assert!(h.contains("coherence γ²"), "{view}: no coherence");
+        assert_eq!(h.contains("Re H [µm/N]"), re_im, "{view}: real part");
+        assert_eq!(h.contains("phase [°]"), mag_phase, "{view}: phase");
+        assert_eq!(h.contains("type=\"radio\""), view == "both", "{view}");
+        assert_no_long_floats(view, &text_outside_svg(&h));
+    }
+    // the report is an output: never one of the inputs
+    let o = mtwin(&[
+        "frf",
+        s(&data),
+        "--out",
+        s(&d.path().join("x.csv")),
+        "--report",
+        s(&data),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+}

@@ -9,9 +9,11 @@ use crate::report::{
     Series,
 };
 use identify::axis::PoseText;
+use identify::frf::FrfChannel;
 use identify::model::{ModalModel, Mode, ModeNum};
 use identify::stabilization::StabilizationDiagram;
 use identify::twin::{ChannelFit, PoseModel, Twin};
+use num_complex::Complex64;
 use std::f64::consts::PI;
 use std::fmt::Write as _;
 
@@ -214,8 +216,6 @@ pub enum FrfView {
 /// [µm/N] and phase, or real and imaginary parts, or both (`view`).
 fn pose_frfs(b: &mut String, i: usize, p: &PoseModel, view: FrfView) {
     let keep = band_lines(p);
-    let f = &p.frf.freqs_hz;
-    let fx_all: Vec<f64> = keep.iter().map(|&k| f[k]).collect();
     for ch in &p.frf.channels {
         let Some(ci) = p.model.channel_index(ch.channel) else {
             continue;
@@ -225,115 +225,174 @@ fn pose_frfs(b: &mut String, i: usize, p: &PoseModel, view: FrfView) {
             .iter()
             .find(|x| x.channel == ch.channel)
             .map_or(0.0, |x| x.fit_pct);
-        let xrange = |fx: &[f64]| {
-            Some((
-                p.band_hz[0].max(fx.first().copied().unwrap_or(1.0)),
-                p.band_hz[1],
-            ))
-        };
-        let coherence = |sel: &[usize]| -> Vec<f64> {
-            ch.coherence
-                .as_ref()
-                .map(|g| sel.iter().map(|&j| g[keep[j]]).collect())
-                .unwrap_or_default()
-        };
-        let (lm, lf) = ("measured", "model");
-        if view != FrfView::ReIm {
-            let meas_all: Vec<f64> = keep.iter().map(|&k| ch.h[k].norm() * 1e6).collect();
-            let sel = thin(&fx_all, &meas_all, MAX_POINTS);
-            let fx: Vec<f64> = sel.iter().map(|&j| fx_all[j]).collect();
-            let meas_mag: Vec<f64> = sel.iter().map(|&j| meas_all[j]).collect();
-            let meas_ph: Vec<f64> = sel
-                .iter()
-                .map(|&j| ch.h[keep[j]].arg() * 180.0 / PI)
-                .collect();
-            let model: Vec<_> = fx.iter().map(|&x| p.model.eval_hz(ci, x)).collect();
-            let mod_mag: Vec<f64> = model.iter().map(|v| v.norm() * 1e6).collect();
-            let mod_ph: Vec<f64> = model.iter().map(|v| v.arg() * 180.0 / PI).collect();
-            let (px, mod_ph) = phase_breaks(&fx, &mod_ph);
-            let mag = [line(lm, &fx, &meas_mag, 0), line(lf, &fx, &mod_mag, 1)];
-            let ph = [
-                Series {
-                    points: true,
-                    ..line("", &fx, &meas_ph, 0)
-                },
-                line("", &px, &mod_ph, 1),
-            ];
-            let coh = coherence(&sel);
-            let coh_s = [line("", &fx, &coh, 2)];
-            let mut panels = vec![
-                Panel::new("|H| [µm/N]", Scale::Log, &mag, 250),
-                Panel {
-                    yrange: Some((-190.0, 190.0)),
-                    ..Panel::new("phase [°]", Scale::Phase, &ph, 140)
-                },
-            ];
-            if !coh.is_empty() {
-                panels.push(Panel {
-                    yrange: Some((0.0, 1.05)),
-                    ..Panel::new("coherence γ²", Scale::Lin, &coh_s, 100)
-                });
-            }
-            let title = format!(
-                "Pose {}: {} receptance, measured vs model (fit {fit:.1} %)",
-                i + 1,
-                ch.channel
-            );
-            let svg = figure(&Figure {
-                title: &title,
-                xlabel: "frequency [Hz]",
-                xscale: xscale(p.band_hz),
-                xrange: xrange(&fx),
-                width: 760,
-                panels: &panels,
-            });
-            let _ = writeln!(b, "<div class=\"magph\">{svg}</div>");
-        }
-        if view != FrfView::MagPhase {
-            // the extremes of both parts kept: a mode's imaginary peak and the real part's
-            // two extremes either side of it
-            let re_all: Vec<f64> = keep.iter().map(|&k| ch.h[k].re * 1e6).collect();
-            let im_all: Vec<f64> = keep.iter().map(|&k| ch.h[k].im * 1e6).collect();
-            let mut sel = thin(&fx_all, &re_all, MAX_POINTS / 2);
-            sel.extend(thin(&fx_all, &im_all, MAX_POINTS / 2));
-            sel.sort_unstable();
-            sel.dedup();
-            let fx: Vec<f64> = sel.iter().map(|&j| fx_all[j]).collect();
-            let meas_re: Vec<f64> = sel.iter().map(|&j| re_all[j]).collect();
-            let meas_im: Vec<f64> = sel.iter().map(|&j| im_all[j]).collect();
-            let model: Vec<_> = fx.iter().map(|&x| p.model.eval_hz(ci, x) * 1e6).collect();
-            let mod_re: Vec<f64> = model.iter().map(|v| v.re).collect();
-            let mod_im: Vec<f64> = model.iter().map(|v| v.im).collect();
-            let re = [line(lm, &fx, &meas_re, 0), line(lf, &fx, &mod_re, 1)];
-            let im = [line("", &fx, &meas_im, 0), line("", &fx, &mod_im, 1)];
-            let coh = coherence(&sel);
-            let coh_s = [line("", &fx, &coh, 2)];
-            let mut panels = vec![
-                Panel::new("Re H [µm/N]", Scale::Lin, &re, 200),
-                Panel::new("Im H [µm/N]", Scale::Lin, &im, 200),
-            ];
-            if !coh.is_empty() {
-                panels.push(Panel {
-                    yrange: Some((0.0, 1.05)),
-                    ..Panel::new("coherence γ²", Scale::Lin, &coh_s, 100)
-                });
-            }
-            let title = format!(
-                "Pose {}: {} receptance, real and imaginary parts (fit {fit:.1} %)",
-                i + 1,
-                ch.channel
-            );
-            let svg = figure(&Figure {
-                title: &title,
-                xlabel: "frequency [Hz]",
-                xscale: xscale(p.band_hz),
-                xrange: xrange(&fx),
-                width: 760,
-                panels: &panels,
-            });
-            let _ = writeln!(b, "<div class=\"reim\">{svg}</div>");
-        }
+        let model = |f: f64| p.model.eval_hz(ci, f);
+        channel_figures(
+            b,
+            &ChannelPlot {
+                head: &format!("Pose {}: {} receptance", i + 1, ch.channel),
+                fit_pct: Some(fit),
+                freqs: &p.frf.freqs_hz,
+                keep: &keep,
+                ch,
+                model: Some(&model),
+                band: p.band_hz,
+                view,
+            },
+        );
     }
+}
+
+/// One channel's FRF to draw: the measured lines `keep` of `freqs`, and the model when
+/// there is one.
+pub struct ChannelPlot<'a> {
+    /// Start of the titles, e.g. `Pose 1: xx receptance`.
+    pub head: &'a str,
+    /// The model's fit to the measured FRF [%], said in the titles.
+    pub fit_pct: Option<f64>,
+    /// All frequency lines [Hz].
+    pub freqs: &'a [f64],
+    /// The lines drawn (positive frequencies within the band).
+    pub keep: &'a [usize],
+    /// The measured channel (receptance in m/N, coherence).
+    pub ch: &'a FrfChannel,
+    /// The model's receptance [m/N] at a frequency [Hz].
+    pub model: Option<&'a dyn Fn(f64) -> Complex64>,
+    /// The band drawn [Hz].
+    pub band: [f64; 2],
+    /// Magnitude and phase, real and imaginary parts, or both.
+    pub view: FrfView,
+}
+
+/// The figures of one channel (`c.view`), each in a `div` of class `magph` or `reim` (the
+/// switch of [`FrfView::Both`] hides one class), with the coherence under the FRF.
+pub fn channel_figures(b: &mut String, c: &ChannelPlot<'_>) {
+    let ch = c.ch;
+    let keep = c.keep;
+    let fx_all: Vec<f64> = keep.iter().map(|&k| c.freqs[k]).collect();
+    let xrange = |fx: &[f64]| Some((c.band[0].max(fx.first().copied().unwrap_or(1.0)), c.band[1]));
+    let coherence = |sel: &[usize]| -> Vec<f64> {
+        ch.coherence
+            .as_ref()
+            .map(|g| sel.iter().map(|&j| g[keep[j]]).collect())
+            .unwrap_or_default()
+    };
+    // one line needs no legend
+    let (lm, lf) = if c.model.is_some() {
+        ("measured", "model")
+    } else {
+        ("", "")
+    };
+    let fit = c
+        .fit_pct
+        .map_or(String::new(), |f| format!(" (fit {f:.1} %)"));
+    let eval = |fx: &[f64]| -> Vec<Complex64> {
+        c.model
+            .map(|m| fx.iter().map(|&x| m(x) * 1e6).collect())
+            .unwrap_or_default()
+    };
+    if c.view != FrfView::ReIm {
+        let meas_all: Vec<f64> = keep.iter().map(|&k| ch.h[k].norm() * 1e6).collect();
+        let sel = thin(&fx_all, &meas_all, MAX_POINTS);
+        let fx: Vec<f64> = sel.iter().map(|&j| fx_all[j]).collect();
+        let meas_mag: Vec<f64> = sel.iter().map(|&j| meas_all[j]).collect();
+        let meas_ph: Vec<f64> = sel
+            .iter()
+            .map(|&j| ch.h[keep[j]].arg() * 180.0 / PI)
+            .collect();
+        let model = eval(&fx);
+        let mod_mag: Vec<f64> = model.iter().map(|v| v.norm()).collect();
+        let mod_ph: Vec<f64> = model.iter().map(|v| v.arg() * 180.0 / PI).collect();
+        let (px, mod_ph) = phase_breaks(&fx[..mod_ph.len()], &mod_ph);
+        let mag = [line(lm, &fx, &meas_mag, 0), line(lf, &fx, &mod_mag, 1)];
+        let ph = [
+            Series {
+                points: true,
+                ..line("", &fx, &meas_ph, 0)
+            },
+            line("", &px, &mod_ph, 1),
+        ];
+        let coh = coherence(&sel);
+        let coh_s = [line("", &fx, &coh, 2)];
+        let n = if c.model.is_some() { 2 } else { 1 };
+        let mut panels = vec![
+            Panel::new("|H| [µm/N]", Scale::Log, &mag[..n], 250),
+            Panel {
+                yrange: Some((-190.0, 190.0)),
+                ..Panel::new("phase [°]", Scale::Phase, &ph[..n], 140)
+            },
+        ];
+        if !coh.is_empty() {
+            panels.push(Panel {
+                yrange: Some((0.0, 1.05)),
+                ..Panel::new("coherence γ²", Scale::Lin, &coh_s, 100)
+            });
+        }
+        let title = if c.model.is_some() {
+            format!("{}, measured vs model{fit}", c.head)
+        } else {
+            format!("{}, magnitude and phase", c.head)
+        };
+        let svg = figure(&Figure {
+            title: &title,
+            xlabel: "frequency [Hz]",
+            xscale: xscale(c.band),
+            xrange: xrange(&fx),
+            width: 760,
+            panels: &panels,
+        });
+        let _ = writeln!(b, "<div class=\"magph\">{svg}</div>");
+    }
+    if c.view != FrfView::MagPhase {
+        // the extremes of both parts kept: a mode's imaginary peak and the real part's
+        // two extremes either side of it
+        let re_all: Vec<f64> = keep.iter().map(|&k| ch.h[k].re * 1e6).collect();
+        let im_all: Vec<f64> = keep.iter().map(|&k| ch.h[k].im * 1e6).collect();
+        let mut sel = thin(&fx_all, &re_all, MAX_POINTS / 2);
+        sel.extend(thin(&fx_all, &im_all, MAX_POINTS / 2));
+        sel.sort_unstable();
+        sel.dedup();
+        let fx: Vec<f64> = sel.iter().map(|&j| fx_all[j]).collect();
+        let meas_re: Vec<f64> = sel.iter().map(|&j| re_all[j]).collect();
+        let meas_im: Vec<f64> = sel.iter().map(|&j| im_all[j]).collect();
+        let model = eval(&fx);
+        let mod_re: Vec<f64> = model.iter().map(|v| v.re).collect();
+        let mod_im: Vec<f64> = model.iter().map(|v| v.im).collect();
+        let re = [line(lm, &fx, &meas_re, 0), line(lf, &fx, &mod_re, 1)];
+        let im = [line("", &fx, &meas_im, 0), line("", &fx, &mod_im, 1)];
+        let coh = coherence(&sel);
+        let coh_s = [line("", &fx, &coh, 2)];
+        let n = if c.model.is_some() { 2 } else { 1 };
+        let mut panels = vec![
+            Panel::new("Re H [µm/N]", Scale::Lin, &re[..n], 200),
+            Panel::new("Im H [µm/N]", Scale::Lin, &im[..n], 200),
+        ];
+        if !coh.is_empty() {
+            panels.push(Panel {
+                yrange: Some((0.0, 1.05)),
+                ..Panel::new("coherence γ²", Scale::Lin, &coh_s, 100)
+            });
+        }
+        let title = format!("{}, real and imaginary parts{fit}", c.head);
+        let svg = figure(&Figure {
+            title: &title,
+            xlabel: "frequency [Hz]",
+            xscale: xscale(c.band),
+            xrange: xrange(&fx),
+            width: 760,
+            panels: &panels,
+        });
+        let _ = writeln!(b, "<div class=\"reim\">{svg}</div>");
+    }
+}
+
+/// The switch between the two kinds of FRF figure of [`FrfView::Both`], without a
+/// script: the checked radio button hides the other kind in the `div.poses` after it.
+pub fn view_switch() -> &'static str {
+    "<style>#frf-mp:checked~.poses .reim,#frf-ri:checked~.poses .magph\
+     {display:none}</style><input type=\"radio\" name=\"frf-view\" id=\"frf-mp\" \
+     checked><label for=\"frf-mp\">magnitude / phase</label> \
+     <input type=\"radio\" name=\"frf-view\" id=\"frf-ri\"><label for=\"frf-ri\">\
+     real / imaginary</label>"
 }
 
 /// A line of a plot.
@@ -588,14 +647,7 @@ pub fn identify_report(twin: &Twin, diagrams: &[StabilizationDiagram], view: Frf
         }
     );
     if view == FrfView::Both {
-        // a switch without a script: the radio buttons' state hides one kind of figure
-        b.push_str(
-            "<style>#frf-mp:checked~.poses .reim,#frf-ri:checked~.poses .magph\
-             {display:none}</style><input type=\"radio\" name=\"frf-view\" id=\"frf-mp\" \
-             checked><label for=\"frf-mp\">magnitude / phase</label> \
-             <input type=\"radio\" name=\"frf-view\" id=\"frf-ri\"><label for=\"frf-ri\">\
-             real / imaginary</label>",
-        );
+        b.push_str(view_switch());
     }
     b.push_str("<div class=\"poses\">");
     for (i, p) in twin.poses.iter().enumerate() {
