@@ -288,8 +288,11 @@ fn lobes_jump_only_where_a_new_lobe_begins_and_the_jump_is_real() {
     let at = machine.center();
     let at_text = format!("{},{},{}", at[0], at[1], at[2]);
     let out = d.path().join("L.csv");
+    let plot = d.path().join("L.svg");
     let o = mtwin(&[
         "lobes",
+        "--plot",
+        s(&plot),
         "--twin",
         s(&twin_path),
         "--at",
@@ -309,6 +312,22 @@ fn lobes_jump_only_where_a_new_lobe_begins_and_the_jump_is_real() {
         "-q",
     ]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    // the plot: both methods, the stable region shaded, the cut's data in the figure
+    let svg = read(&plot);
+    for needle in [
+        "zero-order (Altintas–Budak)",
+        "semi-discretisation (Insperger–Stépán)",
+        "stable (below both limits)",
+        "3 teeth",
+        "ae/D 0.50",
+        "down-milling",
+        "Kt 600 N/mm²",
+        "spindle speed [rpm]",
+        "limiting axial depth of cut [mm]",
+        "<polygon",
+    ] {
+        assert!(svg.contains(needle), "lobes plot lacks {needle}");
+    }
     let rows = lobes_rows(&out);
     let model = {
         let t = Twin::load(&twin_path).unwrap();

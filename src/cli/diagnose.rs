@@ -118,10 +118,13 @@ fn details_rows(d: &serde_json::Map<String, serde_json::Value>) -> String {
             "mode_number" => "mode",
             k => k,
         };
-        // a damping ratio also as the percentage the summary says
+        // a damping ratio also as the percentage the summary says, a short time in µs
         let pct = match v.as_f64() {
             Some(z) if key.contains("damping") && z.abs() < 1.0 => {
                 format!(" ({:.2} %)", 100.0 * z)
+            }
+            Some(t) if key.ends_with("_s") && t != 0.0 && t.abs() < 1e-3 => {
+                format!(" ({:.2} µs)", t * 1e6)
             }
             _ => String::new(),
         };
