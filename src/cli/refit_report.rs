@@ -400,26 +400,28 @@ fn history_section(b: &mut String, twin: &Twin, pose: [f64; 3]) {
     let _ = writeln!(b, "</table>");
     // the model at `pose` after each entry: entry k+1's previous_poses is the state after
     // entry k; the current twin is the state after the last entry
-    let mut states: Vec<ModalModel> = Vec::new();
-    for h in twin.history.iter().skip(1) {
+    // (entry number from 1, the model after it): `history[j].previous_poses` is the
+    // twin after entry j (counted from 1); an entry without them leaves a gap
+    let mut states: Vec<(usize, ModalModel)> = Vec::new();
+    for (j, h) in twin.history.iter().enumerate().skip(1) {
         if h.previous_poses.is_empty() {
             continue;
         }
         let mut t = twin.clone();
         t.poses = h.previous_poses.clone();
         if let Some(m) = model_at(&t, pose) {
-            states.push(m);
+            states.push((j, m));
         }
     }
     if let Some(m) = model_at(twin, pose) {
-        states.push(m);
+        states.push((twin.history.len().max(1), m));
     }
     if states.len() < 2 {
         return;
     }
+    let x: Vec<f64> = states.iter().map(|(j, _)| *j as f64).collect();
+    let states: Vec<ModalModel> = states.into_iter().map(|(_, m)| m).collect();
     let n_modes = states.iter().map(|m| m.modes.len()).min().unwrap_or(0);
-    // state k (from 1) is the twin after history entry k
-    let x: Vec<f64> = (1..=states.len()).map(|i| i as f64).collect();
     let ys: Vec<Vec<f64>> = (0..n_modes)
         .map(|k| {
             states
@@ -460,7 +462,7 @@ fn history_section(b: &mut String, twin: &Twin, pose: [f64; 3]) {
         title: "natural frequencies at the operating pose over the twin's life",
         xlabel: "after history entry (1 = identified, then each refit)",
         xscale: Scale::Index,
-        xrange: Some((0.8, states.len() as f64 + 0.2)),
+        xrange: Some((x[0] - 0.2, x[x.len() - 1] + 0.2)),
         width: 760,
         panels: &[Panel::new(
             "change from the identified twin [%]",
