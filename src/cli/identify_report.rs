@@ -213,7 +213,7 @@ pub enum FrfView {
 }
 
 /// The FRF of every channel of a pose, measured vs model, with the coherence: magnitude
-/// [µm/N] and phase, or real and imaginary parts, or both (`view`).
+/// \[µm/N\] and phase, or real and imaginary parts, or both (`view`).
 fn pose_frfs(b: &mut String, i: usize, p: &PoseModel, view: FrfView) {
     let keep = band_lines(p);
     for ch in &p.frf.channels {
@@ -247,17 +247,17 @@ fn pose_frfs(b: &mut String, i: usize, p: &PoseModel, view: FrfView) {
 pub struct ChannelPlot<'a> {
     /// Start of the titles, e.g. `Pose 1: xx receptance`.
     pub head: &'a str,
-    /// The model's fit to the measured FRF [%], said in the titles.
+    /// The model's fit to the measured FRF \[%\], said in the titles.
     pub fit_pct: Option<f64>,
-    /// All frequency lines [Hz].
+    /// All frequency lines \[Hz\].
     pub freqs: &'a [f64],
     /// The lines drawn (positive frequencies within the band).
     pub keep: &'a [usize],
     /// The measured channel (receptance in m/N, coherence).
     pub ch: &'a FrfChannel,
-    /// The model's receptance [m/N] at a frequency [Hz].
+    /// The model's receptance \[m/N\] at a frequency \[Hz\].
     pub model: Option<&'a dyn Fn(f64) -> Complex64>,
-    /// The band drawn [Hz].
+    /// The band drawn \[Hz\].
     pub band: [f64; 2],
     /// Magnitude and phase, real and imaginary parts, or both.
     pub view: FrfView,
