@@ -134,7 +134,7 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
             pose_tol: 1e-3,
             weighting: "auto".into(),
             report: Some(dir.join("identify.html")),
-            frf_plot: super::identify_report::FrfView::MagPhase,
+            frf_plot: crate::report::identify::FrfView::MagPhase,
             name: "demo machine".into(),
             frf_in: super::frf_io::FrfInputArgs {
                 pose: None,

@@ -53,12 +53,12 @@ pub struct Args {
     /// How the report draws the FRFs: mag-phase, re-im (real and imaginary parts) or
     /// both (a switch in the page).
     #[arg(long, value_enum, default_value = "mag-phase")]
-    pub frf_plot: super::identify_report::FrfView,
+    pub frf_plot: crate::report::identify::FrfView,
 }
 
 /// The report of `mtwin frf`: what was estimated from what, then every channel.
 fn frf_report(a: &Args, est: &FrfEstimate, unit: AverageUnit) -> String {
-    use super::identify_report::{channel_figures, view_switch, ChannelPlot, FrfView};
+    use crate::report::identify::{channel_figures, view_switch, ChannelPlot, FrfView};
     use crate::report::{esc, page};
     let frf = &est.frf;
     let f = &frf.freqs_hz;

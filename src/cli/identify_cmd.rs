@@ -52,7 +52,7 @@ pub struct Args {
     /// re-im (real and imaginary parts) or both (a switch in the page; about twice the
     /// size).
     #[arg(long, value_enum, default_value = "mag-phase")]
-    pub frf_plot: super::identify_report::FrfView,
+    pub frf_plot: crate::report::identify::FrfView,
     /// Name of the machine, written into the twin.
     #[arg(long, default_value = "machine")]
     pub name: String,
@@ -223,7 +223,7 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
     }
     out.say(format!("twin -> {}", a.out.display()));
     if let Some(r) = &a.report {
-        let html = super::identify_report::identify_report(twin, &res.diagrams, a.frf_plot);
+        let html = crate::report::identify::identify_report(twin, &res.diagrams, a.frf_plot);
         identify::atomic::write_atomic(r, html.as_bytes())?;
         out.say(format!("report -> {}", r.display()));
     }

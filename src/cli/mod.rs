@@ -8,10 +8,8 @@ mod export;
 mod frf;
 mod frf_io;
 mod identify_cmd;
-pub mod identify_report;
 mod lobes;
 mod refit;
-mod refit_report;
 mod simulate;
 mod warnings;
 

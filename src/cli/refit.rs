@@ -124,7 +124,7 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
         out.say(super::export::size_line(&size));
     }
     if let Some(r) = &a.report {
-        let html = super::refit_report::refit_report(&twin, &new, &rep, &series);
+        let html = crate::report::refit::refit_report(&twin, &new, &rep, &series);
         identify::atomic::write_atomic(r, html.as_bytes())?;
         out.say(format!("report -> {}", r.display()));
     }

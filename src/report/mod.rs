@@ -1,6 +1,10 @@
 //! Self-contained HTML reports with SVG plots (plotters' SVG backend; no fonts, no
 //! scripts, no network).
 
+pub mod diagnose;
+pub mod identify;
+pub mod refit;
+
 use plotters::coord::ranged1d::ValueFormatter;
 use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
