@@ -1,18 +1,20 @@
 //! # identify — the numerical core of mtwin
 //!
 //! From measured force and response to a pose-dependent, lifetime-adaptive LTI twin of a
-//! machine tool's tool-center-point dynamics. One module per step of the method:
+//! machine tool's tool-center-point dynamics. One module (or folder) per step of the method,
+//! in the paper's order (section numbers of ../shared/paper.md):
 //!
 //! | step (paper section) | module |
 //! |---|---|
-//! | reading data (docs/formats.md) | [`read`], [`timeseries`] |
-//! | FRF exchange with modal software: universal file dataset 58/58b | [`uff`] |
-//! | FRF estimation, H1/H2/Hv, impact processing (2.1) | [`spectra`] |
-//! | model order from a stabilization diagram (2.2) | [`stabilization`] |
-//! | rational fit: Sanathanan–Koerner / vector fitting + refinement (2.2) | [`rational_fit`] |
-//! | the model in modal form, discrete-time view (eq. 1) | [`model`] |
-//! | time simulation, the state-space core of `simulate` and the FMU (eq. 3) | [`simulate`] |
-//! | the twin file | [`twin`] |
+//! | reading data: time series, FRF CSV, UFF 58/58b (2.1, docs/formats.md) | [`io`] ([`read`], [`uff`]) |
+//! | FRF estimation: H1/H2/Hv, impact processing, chirps, coherence (2.1) | [`spectra`] |
+//! | the automatic decisions: band, channels, excitation, with their evidence | [`plan`] |
+//! | model order from a stabilization diagram, rational fit by SK iterations / vector fitting and refinement (2.2) | [`fit`] ([`stabilization`], [`rational_fit`]) |
+//! | a campaign: one fit per pose, modes tracked over the poses, leave-one-pose-out (2.2) | [`campaign`] |
+//! | interpolation between poses, the twin file, the model, simulation (2.2, eq. 1 and 3) | re-exported from `mtwin-core`: [`interpolate`], [`twin`], [`model`], [`simulate`], [`extended`] |
+//! | refit from operating data: operating spectra, drift check, intermediate FRF, modal update, output error, spread to the poses, history (2.3, 3.2) | [`operating`], [`refit`], [`modal_update`], [`output_error`] |
+//! | diagnosis: what the twin gets wrong, its cause, the extended twin (ours, SPEC section 4) | [`diagnose`] (one file per cause) |
+//! | stability lobes of the twin (the co-simulation's use, ours) | [`lobes`] |
 //!
 //! ```
 //! use identify::model::{ChannelModel, ModalModel, Mode, ModeNum};
@@ -36,21 +38,22 @@
 pub mod campaign;
 pub mod diagnose;
 mod eigen;
+pub mod fit;
+pub mod io;
 mod lanes;
-mod linalg;
 pub mod lobes;
 pub mod modal_update;
 pub mod operating;
 pub mod output_error;
 pub mod plan;
-pub mod rational_fit;
-pub mod read;
 pub mod refit;
 pub mod spectra;
-pub mod stabilization;
 #[cfg(test)]
 mod test_util;
-pub mod uff;
+
+// the steps by their own names (`identify::read`, `identify::rational_fit`, ...)
+pub use fit::{rational_fit, stabilization};
+pub use io::{read, uff};
 
 // the twin as data and how to run it live in mtwin-core (the FMU links only that);
 // re-exported so that `identify::model`, `identify::twin`, ... keep their paths

@@ -13,7 +13,7 @@
 
 use super::data::Prepared;
 use super::pf_gram::{self, PfGram};
-use crate::linalg::{lstsq, ScaledGram, Tall};
+use crate::fit::linalg::{lstsq, ScaledGram, Tall};
 use crate::model::Mode;
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;

@@ -25,8 +25,8 @@
 
 use crate::eigen;
 use crate::error::{Error, Result};
+use crate::fit::linalg;
 use crate::frf::Frf;
-use crate::linalg;
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
 use std::f64::consts::PI;
