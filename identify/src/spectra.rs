@@ -792,6 +792,32 @@ impl Accumulator {
                 ni
             )));
         }
+        if ni == 1 {
+            // one input: each channel's lines in one pass over its sums
+            let mut singular = 0;
+            let chans = self
+                .outputs
+                .iter()
+                .enumerate()
+                .map(|(o, &out)| {
+                    let (gyy, gfy) = (&self.gyy[o * nl..][..nl], &self.gfy[o * nl..][..nl]);
+                    let mut h = Vec::with_capacity(nl);
+                    let mut coh = Vec::with_capacity(nl);
+                    for ((g, &gyy), &gfy) in self.gff[..nl].iter().zip(gyy).zip(gfy) {
+                        let (hk, ck) = siso_line(est, g.re, gfy, gyy);
+                        singular += usize::from(g.re <= 0.0);
+                        h.push(hk);
+                        coh.push(ck);
+                    }
+                    FrfChannel {
+                        channel: Channel::new(out, self.inputs[0]),
+                        h,
+                        coherence: Some(coh),
+                    }
+                })
+                .collect();
+            return Ok((chans, singular));
+        }
         let mut chans: Vec<FrfChannel> = Vec::with_capacity(ni * no);
         for &o in &self.outputs {
             for &i in &self.inputs {
@@ -811,50 +837,22 @@ impl Accumulator {
                 let gyy = self.gyy[self.at(o, k)];
                 let mut coh = 0.0;
                 h.fill(Complex64::default());
-                if ni == 1 {
-                    let gff = self.gff[k].re;
-                    let gfy = self.gfy[self.at(o, k)];
-                    if gff > 0.0 && gyy > 0.0 {
-                        coh = (gfy.norm_sqr() / (gff * gyy)).clamp(0.0, 1.0);
+                for (ij, aij) in a.iter_mut().enumerate() {
+                    *aij = self.gff[self.at(ij, k)];
+                }
+                for (i, bi) in b.iter_mut().enumerate() {
+                    *bi = self.gfy[self.at(i * no + o, k)];
+                }
+                if solve_in_place(&mut a, &mut b, ni) {
+                    h.copy_from_slice(&b);
+                    let explained: f64 = (0..ni)
+                        .map(|i| (self.gfy[self.at(i * no + o, k)].conj() * h[i]).re)
+                        .sum();
+                    if gyy > 0.0 {
+                        coh = (explained / gyy).clamp(0.0, 1.0);
                     }
-                    h[0] = match est {
-                        _ if gff <= 0.0 => {
-                            singular += 1;
-                            Complex64::default()
-                        }
-                        Estimator::H1 => gfy / gff,
-                        Estimator::H2 if gfy.norm_sqr() > 0.0 => gyy / gfy.conj(),
-                        Estimator::Hv if gfy.norm_sqr() > 0.0 => {
-                            // (Gyy - Gff + S) / (2 Gyf), S = sqrt((Gff-Gyy)² + 4|Gfy|²),
-                            // in the form without cancellation for either sign.
-                            let d = gff - gyy;
-                            let s = (d * d + 4.0 * gfy.norm_sqr()).sqrt();
-                            if d >= 0.0 {
-                                2.0 * gfy / (d + s)
-                            } else {
-                                (s - d) / (2.0 * gfy.conj())
-                            }
-                        }
-                        _ => Complex64::default(),
-                    };
                 } else {
-                    for (ij, aij) in a.iter_mut().enumerate() {
-                        *aij = self.gff[self.at(ij, k)];
-                    }
-                    for (i, bi) in b.iter_mut().enumerate() {
-                        *bi = self.gfy[self.at(i * no + o, k)];
-                    }
-                    if solve_in_place(&mut a, &mut b, ni) {
-                        h.copy_from_slice(&b);
-                        let explained: f64 = (0..ni)
-                            .map(|i| (self.gfy[self.at(i * no + o, k)].conj() * h[i]).re)
-                            .sum();
-                        if gyy > 0.0 {
-                            coh = (explained / gyy).clamp(0.0, 1.0);
-                        }
-                    } else {
-                        singular += 1;
-                    }
+                    singular += 1;
                 }
                 for (i, hi) in h.iter().enumerate() {
                     let c = &mut chans[o * ni + i];
@@ -867,6 +865,34 @@ impl Accumulator {
         }
         Ok((chans, singular))
     }
+}
+
+/// H and coherence of one line of a single-input channel from its sums `Gff`, `Gfy`,
+/// `Gyy` (H = 0 where `Gff` ≤ 0: a singular line).
+fn siso_line(est: Estimator, gff: f64, gfy: Complex64, gyy: f64) -> (Complex64, f64) {
+    let coh = if gff > 0.0 && gyy > 0.0 {
+        (gfy.norm_sqr() / (gff * gyy)).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let h = match est {
+        _ if gff <= 0.0 => Complex64::default(),
+        Estimator::H1 => gfy / gff,
+        Estimator::H2 if gfy.norm_sqr() > 0.0 => gyy / gfy.conj(),
+        Estimator::Hv if gfy.norm_sqr() > 0.0 => {
+            // (Gyy - Gff + S) / (2 Gyf), S = sqrt((Gff-Gyy)² + 4|Gfy|²),
+            // in the form without cancellation for either sign.
+            let d = gff - gyy;
+            let s = (d * d + 4.0 * gfy.norm_sqr()).sqrt();
+            if d >= 0.0 {
+                2.0 * gfy / (d + s)
+            } else {
+                (s - d) / (2.0 * gfy.conj())
+            }
+        }
+        _ => Complex64::default(),
+    };
+    (h, coh)
 }
 
 /// Lines per chunk of [`Accumulator::add`] (a chunk of every spectrum of a segment and of
