@@ -17,8 +17,8 @@ fn main() {
     for p in [
         "fmu/src",
         "fmu/Cargo.toml",
-        "identify/src",
-        "identify/Cargo.toml",
+        "core/src",
+        "core/Cargo.toml",
         "modelDescription/src",
         "modelDescription/Cargo.toml",
         "Cargo.lock",

@@ -19,13 +19,21 @@ pub struct Series<'a> {
     pub points: bool,
 }
 
+/// Eleven distinguishable colours (black, then the ten of matplotlib's `tab10` with red
+/// first): nine modes get nine colours.
 fn color(i: usize) -> RGBColor {
-    match i % 5 {
+    match i % 11 {
         0 => RGBColor(20, 20, 20),
         1 => RGBColor(214, 39, 40),
         2 => RGBColor(31, 119, 180),
         3 => RGBColor(44, 160, 44),
-        _ => RGBColor(148, 103, 189),
+        4 => RGBColor(148, 103, 189),
+        5 => RGBColor(255, 127, 14),
+        6 => RGBColor(140, 86, 75),
+        7 => RGBColor(227, 119, 194),
+        8 => RGBColor(188, 189, 34),
+        9 => RGBColor(23, 190, 207),
+        _ => RGBColor(127, 127, 127),
     }
 }
 
@@ -36,6 +44,69 @@ pub enum Scale {
     Lin,
     /// Logarithmic axis (values ≤ 0 are dropped).
     Log,
+    /// A phase in degrees: linear, ticks at the multiples of 90°, grid at 45°.
+    Phase,
+    /// Counting numbers (pose, history entry): linear, ticks only at whole numbers.
+    Index,
+}
+
+/// A linear axis whose ticks are whole numbers (every 1, 2, 5, 10, ... as room allows).
+struct IndexCoord(RangedCoordf64);
+
+impl Ranged for IndexCoord {
+    type FormatOption = plotters::coord::ranged1d::DefaultFormatting;
+    type ValueType = f64;
+    fn map(&self, v: &f64, limit: (i32, i32)) -> i32 {
+        self.0.map(v, limit)
+    }
+    fn key_points<H: plotters::coord::ranged1d::KeyPointHint>(&self, hint: H) -> Vec<f64> {
+        let r = self.0.range();
+        let n = hint.max_num_points().max(1) as f64;
+        let step = [1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0]
+            .into_iter()
+            .find(|s| (r.end - r.start) / s <= n)
+            .unwrap_or(200.0);
+        let mut v = (r.start / step).ceil() * step;
+        let mut out = Vec::new();
+        while v <= r.end + 1e-9 {
+            out.push(v);
+            v += step;
+        }
+        out
+    }
+    fn range(&self) -> std::ops::Range<f64> {
+        self.0.range()
+    }
+}
+
+/// A linear axis whose ticks are the multiples of 90 (a phase in degrees).
+struct PhaseCoord(RangedCoordf64);
+
+impl Ranged for PhaseCoord {
+    type FormatOption = plotters::coord::ranged1d::DefaultFormatting;
+    type ValueType = f64;
+    fn map(&self, v: &f64, limit: (i32, i32)) -> i32 {
+        self.0.map(v, limit)
+    }
+    fn key_points<H: plotters::coord::ranged1d::KeyPointHint>(&self, hint: H) -> Vec<f64> {
+        let r = self.0.range();
+        // bold lines (the labelled ticks) every 90°, light lines every 45°
+        let step = if hint.max_num_points() > 12 {
+            45.0
+        } else {
+            90.0
+        };
+        let mut v = (r.start / step).ceil() * step;
+        let mut out = Vec::new();
+        while v <= r.end + 1e-9 {
+            out.push(v);
+            v += step;
+        }
+        out
+    }
+    fn range(&self) -> std::ops::Range<f64> {
+        self.0.range()
+    }
 }
 
 /// Tick label in engineering form: `1k`, `2.5k`, `500`, `0.02`, `3µ`; at most three
@@ -65,6 +136,47 @@ pub fn eng(v: f64) -> String {
         t = "0".into();
     }
     format!("{t}{prefix}")
+}
+
+/// `m·10ⁿ` with a superscript exponent (`10⁻⁴` when `m` is 1).
+fn pow10(m: f64, n: i32) -> String {
+    let sup: String = n
+        .to_string()
+        .chars()
+        .map(|c| match c {
+            '-' => '⁻',
+            '0' => '⁰',
+            '1' => '¹',
+            '2' => '²',
+            '3' => '³',
+            '4' => '⁴',
+            '5' => '⁵',
+            '6' => '⁶',
+            '7' => '⁷',
+            '8' => '⁸',
+            _ => '⁹',
+        })
+        .collect();
+    if (m - 1.0).abs() < 1e-6 {
+        format!("10{sup}")
+    } else {
+        format!("{}·10{sup}", m.round())
+    }
+}
+
+/// A phase curve (degrees) with a break where it wraps (a jump of more than 180°
+/// between neighbours), so no vertical line joins +180° and −180°.
+pub fn phase_breaks(x: &[f64], ph: &[f64]) -> (Vec<f64>, Vec<f64>) {
+    let (mut bx, mut by) = (Vec::with_capacity(x.len()), Vec::with_capacity(x.len()));
+    for (i, (&xi, &yi)) in x.iter().zip(ph).enumerate() {
+        if i > 0 && (yi - ph[i - 1]).abs() > 180.0 {
+            bx.push(0.5 * (xi + x[i - 1]));
+            by.push(f64::NAN);
+        }
+        bx.push(xi);
+        by.push(yi);
+    }
+    (bx, by)
 }
 
 /// One panel of a [`Figure`]: its y axis and lines; panels share the x axis.
@@ -120,7 +232,7 @@ pub struct Figure<'a> {
 fn data_range<'a>(vals: impl Iterator<Item = &'a f64>, scale: Scale) -> Option<(f64, f64)> {
     let (lo, hi) = vals
         .copied()
-        .filter(|v| v.is_finite() && (scale == Scale::Lin || *v > 0.0))
+        .filter(|v| v.is_finite() && (scale != Scale::Log || *v > 0.0))
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
             (a.min(v), b.max(v))
         });
@@ -137,7 +249,7 @@ fn padded(r: (f64, f64), scale: Scale) -> (f64, f64) {
             }
             (lo / 1.25, hi * 1.25)
         }
-        Scale::Lin => {
+        Scale::Lin | Scale::Phase | Scale::Index => {
             if hi == lo {
                 let d = if lo == 0.0 { 1.0 } else { 0.1 * lo.abs() };
                 lo -= d;
@@ -159,15 +271,20 @@ fn tick_formatter(span: f64, log: bool) -> impl Fn(&f64) -> String {
         if log {
             let e = v.abs().log10();
             let m = *v / 10f64.powf(e.round());
-            let m = if (m - 1.0).abs() < 1e-6 {
-                1.0
+            let (m, n) = if (m - 1.0).abs() < 1e-6 {
+                (1.0, e.round())
             } else {
-                *v / 10f64.powf(e.floor())
+                (*v / 10f64.powf(e.floor()), e.floor())
             };
             if ![1.0, 2.0, 5.0].iter().any(|k| (m - k).abs() < 1e-6) {
                 return String::new();
             }
-            let t = eng(*v);
+            let t = if *v < 1e-3 {
+                // `2·10⁻⁴`, not `200µ`: the unit (µm/N) has its prefix already
+                pow10(m, n as i32)
+            } else {
+                eng(*v)
+            };
             if *last.borrow() == t {
                 return String::new();
             }
@@ -215,7 +332,7 @@ where
         .x_label_area_size(if bottom { 36 } else { 18 })
         .y_label_area_size(64);
     if let Some(c) = caption {
-        cb.caption(c, ("sans-serif", 16));
+        cb.caption(c, ("sans-serif", 18));
     }
     let Ok(mut chart) = cb.build_cartesian_2d(xr, yr) else {
         return;
@@ -229,7 +346,7 @@ where
         .y_labels((panel.height as usize / 32).clamp(3, 10))
         .light_line_style(RGBColor(240, 240, 240))
         .bold_line_style(RGBColor(215, 215, 215))
-        .label_style(("sans-serif", 12));
+        .label_style(("sans-serif", 14));
     if xlog {
         mesh.x_labels(40).x_max_light_lines(0);
     }
@@ -261,7 +378,7 @@ where
                 });
         }
     }
-    let ok = |v: f64| v.is_finite() && (panel.yscale == Scale::Lin || v > 0.0);
+    let ok = |v: f64| v.is_finite() && (panel.yscale != Scale::Log || v > 0.0);
     for s in panel.series {
         let c = color(s.color);
         let pts: Vec<(f64, f64)> =
@@ -271,12 +388,13 @@ where
                 .map(|(x, y)| (*x, *y))
                 .collect();
         if s.points {
-            let _ = chart
-                .draw_series(pts.iter().map(|p| Circle::new(*p, 2, c.filled())))
-                .map(|a| {
+            let drawn = chart.draw_series(pts.iter().map(|p| Circle::new(*p, 2, c.filled())));
+            if !s.label.is_empty() {
+                let _ = drawn.map(|a| {
                     a.label(s.label)
                         .legend(move |(x, y)| Circle::new((x + 10, y), 3, c.filled()))
                 });
+            }
         } else {
             // a break in the data (a NaN or a value off a log axis) breaks the line
             let mut runs: Vec<Vec<(f64, f64)>> = vec![Vec::new()];
@@ -292,7 +410,7 @@ where
             let mut first = true;
             for run in runs.into_iter().filter(|r| !r.is_empty()) {
                 let drawn = chart.draw_series(LineSeries::new(run, c.stroke_width(1)));
-                if first {
+                if first && !s.label.is_empty() {
                     let _ = drawn.map(|a| {
                         a.label(s.label).legend(move |(x, y)| {
                             PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2))
@@ -309,8 +427,33 @@ where
             .position(panel.legend.clone())
             .background_style(WHITE.mix(0.85))
             .border_style(RGBColor(150, 150, 150))
-            .label_font(("sans-serif", 12))
+            .label_font(("sans-serif", 14))
             .draw();
+    }
+}
+
+/// Draws a panel on the x axis `xr` with the y axis its scale asks for.
+fn panel_with_y<X>(area: &Area<'_>, xr: X, yr: (f64, f64), p: &Panel<'_>, place: Place<'_>)
+where
+    X: Ranged<ValueType = f64> + ValueFormatter<f64>,
+{
+    match p.yscale {
+        Scale::Log => draw_panel(area, xr, LogCoord::from((yr.0..yr.1).log_scale()), p, place),
+        Scale::Lin => draw_panel(area, xr, RangedCoordf64::from(yr.0..yr.1), p, place),
+        Scale::Index => draw_panel(
+            area,
+            xr,
+            IndexCoord(RangedCoordf64::from(yr.0..yr.1)),
+            p,
+            place,
+        ),
+        Scale::Phase => draw_panel(
+            area,
+            xr,
+            PhaseCoord(RangedCoordf64::from(yr.0..yr.1)),
+            p,
+            place,
+        ),
     }
 }
 
@@ -349,68 +492,33 @@ pub fn figure(f: &Figure<'_>) -> String {
             let Some(yr) = yr else { continue };
             let caption = (i == 0).then_some(f.title);
             let bottom = i + 1 == n;
-            match (f.xscale, p.yscale) {
-                (Scale::Log, Scale::Log) => draw_panel(
-                    &area,
-                    LogCoord::from((xr.0..xr.1).log_scale()),
-                    LogCoord::from((yr.0..yr.1).log_scale()),
-                    p,
-                    Place {
-                        xlabel: f.xlabel,
-                        caption,
-                        bottom,
-                        xlog: true,
-                        ylog: true,
-                    },
-                ),
-                (Scale::Log, Scale::Lin) => draw_panel(
-                    &area,
-                    LogCoord::from((xr.0..xr.1).log_scale()),
-                    RangedCoordf64::from(yr.0..yr.1),
-                    p,
-                    Place {
-                        xlabel: f.xlabel,
-                        caption,
-                        bottom,
-                        xlog: true,
-                        ylog: false,
-                    },
-                ),
-                (Scale::Lin, Scale::Log) => draw_panel(
-                    &area,
-                    RangedCoordf64::from(xr.0..xr.1),
-                    LogCoord::from((yr.0..yr.1).log_scale()),
-                    p,
-                    Place {
-                        xlabel: f.xlabel,
-                        caption,
-                        bottom,
-                        xlog: false,
-                        ylog: true,
-                    },
-                ),
-                (Scale::Lin, Scale::Lin) => draw_panel(
-                    &area,
-                    RangedCoordf64::from(xr.0..xr.1),
-                    RangedCoordf64::from(yr.0..yr.1),
-                    p,
-                    Place {
-                        xlabel: f.xlabel,
-                        caption,
-                        bottom,
-                        xlog: false,
-                        ylog: false,
-                    },
-                ),
+            let place = Place {
+                xlabel: f.xlabel,
+                caption,
+                bottom,
+                xlog: f.xscale == Scale::Log,
+                ylog: p.yscale == Scale::Log,
+            };
+            match f.xscale {
+                Scale::Log => {
+                    let xr = LogCoord::from((xr.0..xr.1).log_scale());
+                    panel_with_y(&area, xr, yr, p, place)
+                }
+                Scale::Index => {
+                    let xr = IndexCoord(RangedCoordf64::from(xr.0..xr.1));
+                    panel_with_y(&area, xr, yr, p, place)
+                }
+                _ => panel_with_y(&area, RangedCoordf64::from(xr.0..xr.1), yr, p, place),
             }
         }
         let _ = root.present();
     }
-    svg
+    compact_svg(&svg)
 }
 
 /// A stabilization diagram: the poles of each model order (points, left axis) over the
-/// sum of the FRF magnitudes (grey line, right log axis), frequency on a log axis.
+/// sum of the FRF magnitudes (grey line, right log axis), frequency on a log axis. The
+/// last set of `poles` (the modes chosen) is drawn as larger triangles.
 pub fn stabilization_figure(
     title: &str,
     poles: &[Series<'_>],
@@ -434,7 +542,7 @@ pub fn stabilization_figure(
         let root = SVGBackend::with_string(&mut svg, (760, 360)).into_drawing_area();
         let _ = root.fill(&WHITE);
         let Ok(chart) = ChartBuilder::on(&root)
-            .caption(title, ("sans-serif", 16))
+            .caption(title, ("sans-serif", 18))
             .margin(8)
             .x_label_area_size(36)
             .y_label_area_size(56)
@@ -460,14 +568,14 @@ pub fn stabilization_figure(
             .x_max_light_lines(0)
             .light_line_style(RGBColor(240, 240, 240))
             .bold_line_style(RGBColor(215, 215, 215))
-            .label_style(("sans-serif", 12))
+            .label_style(("sans-serif", 14))
             .draw();
         let _ = chart
             .configure_secondary_axes()
             .y_desc(frf_ylabel)
             .y_labels(40)
             .y_label_formatter(&tick_formatter(mr.1 - mr.0, true))
-            .label_style(("sans-serif", 12))
+            .label_style(("sans-serif", 14))
             .draw();
         let grey = RGBColor(140, 140, 140);
         let line: Vec<(f64, f64)> = frf
@@ -483,7 +591,7 @@ pub fn stabilization_figure(
                 a.label(frf_label)
                     .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], grey))
             });
-        for s in poles {
+        for (k, s) in poles.iter().enumerate() {
             let c = color(s.color);
             let pts: Vec<(f64, f64)> =
                 s.x.iter()
@@ -491,25 +599,48 @@ pub fn stabilization_figure(
                     .filter(|(x, y)| x.is_finite() && y.is_finite())
                     .map(|(x, y)| (*x, *y))
                     .collect();
-            let _ = chart
-                .draw_series(pts.iter().map(|p| Circle::new(*p, 2, c.filled())))
-                .map(|a| {
-                    a.label(s.label)
-                        .legend(move |(x, y)| Circle::new((x + 10, y), 3, c.filled()))
-                });
+            // the last set (the modes chosen) as larger triangles over the columns
+            let size = if k + 1 == poles.len() { 5 } else { 2 };
+            let _ = if size > 2 {
+                chart.draw_series(
+                    pts.iter()
+                        .map(|p| TriangleMarker::new(*p, size, c.filled())),
+                )
+            } else {
+                chart.draw_series(pts.iter().map(|p| Circle::new(*p, size, c.filled())))
+            };
         }
         let _ = root.present();
     }
     // the legend under the plot: inside, it would hide poles
     let mut legend = format!("<span style=\"color:#8c8c8c\">━</span> {} ", esc(frf_label));
-    for s in poles {
+    for (k, s) in poles.iter().enumerate() {
         let RGBColor(r, g, b) = color(s.color);
         legend.push_str(&format!(
-            "&nbsp; <span style=\"color:#{r:02x}{g:02x}{b:02x}\">●</span> {}",
+            "&nbsp; <span style=\"color:#{r:02x}{g:02x}{b:02x}\">{}</span> {}",
+            if k + 1 == poles.len() { "▲" } else { "●" },
             esc(s.label)
         ));
     }
-    format!("{svg}<p class=\"legend\">{legend}</p>")
+    format!("{}<p class=\"legend\">{legend}</p>", compact_svg(&svg))
+}
+
+/// A legend under a figure, as HTML: a coloured line and the label per entry (label,
+/// colour index as in [`Series::color`]). For plots whose lines fill the whole area.
+pub fn legend_html(items: &[(&str, usize)]) -> String {
+    let mut legend = String::from("<p class=\"legend\">");
+    for (i, (label, c)) in items.iter().enumerate() {
+        let RGBColor(r, g, b) = color(*c);
+        if i > 0 {
+            legend.push_str(" &nbsp; ");
+        }
+        legend.push_str(&format!(
+            "<span style=\"color:#{r:02x}{g:02x}{b:02x}\">━●</span> {}",
+            esc(label)
+        ));
+    }
+    legend.push_str("</p>");
+    legend
 }
 
 /// An SVG line plot (one panel, linear x).
@@ -573,6 +704,236 @@ pub fn thin(x: &[f64], y: &[f64], n: usize) -> Vec<usize> {
     out
 }
 
+/// The attributes of one SVG tag, in order.
+fn attrs(tag: &str) -> Vec<(&str, &str)> {
+    let mut out = Vec::new();
+    // past the tag's name
+    let mut rest = tag.split_once(char::is_whitespace).map_or("", |(_, r)| r);
+    while let Some(eq) = rest.find("=\"") {
+        let name = rest[..eq].trim();
+        let Some(end) = rest[eq + 2..].find('"') else {
+            break;
+        };
+        out.push((name, &rest[eq + 2..eq + 2 + end]));
+        rest = &rest[eq + 3 + end..];
+    }
+    out
+}
+
+fn attr<'a>(a: &[(&str, &'a str)], name: &str) -> &'a str {
+    a.iter().find(|(n, _)| *n == name).map_or("", |(_, v)| v)
+}
+
+/// Appends `dx dy` to a relative path command: separators only where a sign does not
+/// separate the numbers already.
+fn push_pair(d: &mut String, dx: i64, dy: i64, first: bool) {
+    use std::fmt::Write as _;
+    if !first && dx >= 0 {
+        d.push(' ');
+    }
+    let _ = write!(d, "{dx}");
+    if dy >= 0 {
+        d.push(' ');
+    }
+    let _ = write!(d, "{dy}");
+}
+
+/// The same picture in a fraction of the bytes: plotters writes one element per grid
+/// line, one `<circle>` per point and absolute polylines; runs of lines, points and
+/// polylines of one style become one `<path>` each (points as round dots of the same
+/// diameter, polylines in relative coordinates), default attributes and empty labels
+/// go, and font sizes are rounded. An 18-pose identify report shrinks about 4×.
+pub fn compact_svg(svg: &str) -> String {
+    use std::fmt::Write as _;
+    #[derive(PartialEq)]
+    enum Kind {
+        None,
+        /// colour and diameter of round dots
+        Dots(String, String),
+        Lines(String, String),
+        Poly(String, String),
+    }
+    let mut out = String::with_capacity(svg.len() / 3);
+    let mut kind = Kind::None;
+    let mut d = String::new();
+    let mut last_dot: Option<(i64, i64)> = None;
+    let mut texts = String::new();
+    let flush = |out: &mut String, kind: &mut Kind, d: &mut String, texts: &mut String| {
+        match kind {
+            Kind::None => {}
+            Kind::Dots(c, r) => {
+                let _ = write!(
+                    out,
+                    "<path d=\"{d}\" stroke=\"{c}\" stroke-width=\"{r}\" \
+                     stroke-linecap=\"round\" fill=\"none\"/>"
+                );
+            }
+            Kind::Lines(c, w) | Kind::Poly(c, w) => {
+                let _ = write!(
+                    out,
+                    "<path d=\"{d}\" stroke=\"{c}\" stroke-width=\"{w}\" fill=\"none\"/>"
+                );
+            }
+        }
+        *kind = Kind::None;
+        d.clear();
+        out.push_str(texts);
+        texts.clear();
+    };
+    let mut rest = svg;
+    while let Some(i) = rest.find('<') {
+        let between = rest[..i].trim();
+        if !between.is_empty() {
+            flush(&mut out, &mut kind, &mut d, &mut texts);
+            out.push_str(between);
+        }
+        let Some(j) = rest[i..].find('>') else {
+            break;
+        };
+        let tag = &rest[i..i + j + 1];
+        rest = &rest[i + j + 1..];
+        let name = tag[1..]
+            .split(|c: char| c.is_whitespace() || c == '/' || c == '>')
+            .next()
+            .unwrap_or("");
+        let a = attrs(tag);
+        let num = |n: &str| attr(&a, n).parse::<i64>().ok();
+        let opaque = matches!(attr(&a, "opacity"), "" | "1");
+        match name {
+            "circle" if opaque && attr(&a, "stroke") == "none" => {
+                let (Some(cx), Some(cy), Some(r)) = (num("cx"), num("cy"), num("r")) else {
+                    out.push_str(tag);
+                    continue;
+                };
+                let k = Kind::Dots(attr(&a, "fill").to_string(), (2 * r).to_string());
+                if k != kind {
+                    flush(&mut out, &mut kind, &mut d, &mut texts);
+                    kind = k;
+                }
+                match last_dot {
+                    Some((x, y)) if !d.is_empty() => {
+                        d.push('m');
+                        push_pair(&mut d, cx - x, cy - y, true);
+                        d.push_str("h0");
+                    }
+                    _ => {
+                        let _ = write!(d, "M{cx} {cy}h0");
+                    }
+                }
+                last_dot = Some((cx, cy));
+            }
+            "line" if opaque => {
+                let (Some(x1), Some(y1), Some(x2), Some(y2)) =
+                    (num("x1"), num("y1"), num("x2"), num("y2"))
+                else {
+                    out.push_str(tag);
+                    continue;
+                };
+                let k = Kind::Lines(
+                    attr(&a, "stroke").to_string(),
+                    attr(&a, "stroke-width").to_string(),
+                );
+                if k != kind {
+                    flush(&mut out, &mut kind, &mut d, &mut texts);
+                    kind = k;
+                }
+                let _ = write!(d, "M{x1} {y1}");
+                if x1 == x2 {
+                    let _ = write!(d, "V{y2}");
+                } else if y1 == y2 {
+                    let _ = write!(d, "H{x2}");
+                } else {
+                    let _ = write!(d, "L{x2} {y2}");
+                }
+            }
+            "polyline" if opaque => {
+                let pts: Vec<(i64, i64)> = attr(&a, "points")
+                    .split_whitespace()
+                    .filter_map(|p| {
+                        let (x, y) = p.split_once(',')?;
+                        Some((x.parse().ok()?, y.parse().ok()?))
+                    })
+                    .collect();
+                if pts.is_empty() {
+                    continue;
+                }
+                let k = Kind::Poly(
+                    attr(&a, "stroke").to_string(),
+                    attr(&a, "stroke-width").to_string(),
+                );
+                if k != kind {
+                    flush(&mut out, &mut kind, &mut d, &mut texts);
+                    kind = k;
+                }
+                let _ = write!(d, "M{} {}", pts[0].0, pts[0].1);
+                let mut first = true;
+                let mut last = pts[0];
+                for &p in &pts[1..] {
+                    if p == last {
+                        continue;
+                    }
+                    if first {
+                        d.push('l');
+                    }
+                    push_pair(&mut d, p.0 - last.0, p.1 - last.1, first);
+                    first = false;
+                    last = p;
+                }
+                if first {
+                    // a single point: a dot as long as the line is wide
+                    d.push_str("h0");
+                }
+            }
+            "text" => {
+                // a label does not break a run (plotters draws a tick, its label, the
+                // next tick...): it is drawn after the run, on top
+                let Some(k) = rest.find("</text>") else {
+                    out.push_str(tag);
+                    continue;
+                };
+                let content = rest[..k].trim();
+                rest = &rest[k + 7..];
+                if content.is_empty() {
+                    continue;
+                }
+                let t = if kind == Kind::None {
+                    &mut out
+                } else {
+                    &mut texts
+                };
+                t.push_str("<text");
+                for (n, v) in &a {
+                    match (*n, *v) {
+                        ("opacity", "1") | ("fill", "#000000") | ("font-family", "sans-serif") => {}
+                        ("font-size", v) => {
+                            let size = v.parse::<f64>().unwrap_or(12.0);
+                            let _ = write!(t, " font-size=\"{size:.1}\"");
+                        }
+                        (n, v) => {
+                            let _ = write!(t, " {n}=\"{v}\"");
+                        }
+                    }
+                }
+                let _ = write!(t, ">{content}</text>");
+            }
+            "svg" => {
+                flush(&mut out, &mut kind, &mut d, &mut texts);
+                // the labels' font, said once
+                out.push_str(&tag.replacen("<svg", "<svg font-family=\"sans-serif\"", 1));
+            }
+            _ => {
+                flush(&mut out, &mut kind, &mut d, &mut texts);
+                out.push_str(&tag.replace(" opacity=\"1\"", ""));
+            }
+        }
+        if name == "svg" {
+            out.push('\n');
+        }
+    }
+    flush(&mut out, &mut kind, &mut d, &mut texts);
+    out
+}
+
 /// Escapes text for HTML.
 pub fn esc(s: &str) -> String {
     s.replace('&', "&amp;")
@@ -608,6 +969,67 @@ mod tests {
         assert_eq!(eng(0.01), "0.01");
         assert_eq!(eng(3e-6), "3µ");
         assert_eq!(eng(1.5e6), "1.5M");
+    }
+
+    #[test]
+    fn compacted_svg_draws_the_same_elements() {
+        let svg = "<svg width=\"10\" height=\"10\" xmlns=\"http://www.w3.org/2000/svg\">\n\
+            <line opacity=\"1\" stroke=\"#D7D7D7\" stroke-width=\"1\" x1=\"5\" y1=\"9\" x2=\"5\" y2=\"1\"/>\n\
+            <line opacity=\"1\" stroke=\"#D7D7D7\" stroke-width=\"1\" x1=\"1\" y1=\"4\" x2=\"9\" y2=\"4\"/>\n\
+            <polyline fill=\"none\" opacity=\"1\" stroke=\"#000000\" stroke-width=\"1\" points=\"1,1 2,1 2,1 4,3 \"/>\n\
+            <text x=\"1\" y=\"2\" font-family=\"sans-serif\" font-size=\"11.29032258\" opacity=\"1\" fill=\"#000000\">\n100\n</text>\n\
+            <text x=\"1\" y=\"3\" font-size=\"11.29032258\">\n\n</text>\n\
+            <polyline fill=\"none\" opacity=\"1\" stroke=\"#000000\" stroke-width=\"1\" points=\"6,6 3,8 \"/>\n\
+            <circle cx=\"3\" cy=\"4\" r=\"2\" opacity=\"1\" fill=\"#141414\" stroke=\"none\" stroke-width=\"1\"/>\n\
+            <circle cx=\"5\" cy=\"2\" r=\"2\" opacity=\"1\" fill=\"#141414\" stroke=\"none\" stroke-width=\"1\"/>\n\
+            </svg>\n";
+        let c = super::compact_svg(svg);
+        assert_eq!(
+            c,
+            "<svg font-family=\"sans-serif\" width=\"10\" height=\"10\" \
+             xmlns=\"http://www.w3.org/2000/svg\">\n\
+             <path d=\"M5 9V1M1 4H9\" stroke=\"#D7D7D7\" stroke-width=\"1\" fill=\"none\"/>\
+             <path d=\"M1 1l1 0 2 2M6 6l-3 2\" stroke=\"#000000\" stroke-width=\"1\" fill=\"none\"/>\
+             <text x=\"1\" y=\"2\" font-size=\"11.3\">100</text>\
+             <path d=\"M3 4h0m2-2h0\" stroke=\"#141414\" stroke-width=\"4\" \
+             stroke-linecap=\"round\" fill=\"none\"/></svg>"
+        );
+    }
+
+    #[test]
+    fn phase_ticks_at_90_degrees_and_index_ticks_whole() {
+        use plotters::coord::ranged1d::{BoldPoints, Ranged};
+        use plotters::coord::types::RangedCoordf64;
+        let ph = super::PhaseCoord(RangedCoordf64::from(-190.0..190.0));
+        assert_eq!(
+            ph.key_points(BoldPoints(4)),
+            vec![-180.0, -90.0, 0.0, 90.0, 180.0]
+        );
+        let ix = super::IndexCoord(RangedCoordf64::from(0.5..18.5));
+        let k = ix.key_points(BoldPoints(10));
+        assert_eq!(k.first(), Some(&2.0));
+        assert!(k.iter().all(|v| v.fract() == 0.0), "{k:?}");
+        let ix = super::IndexCoord(RangedCoordf64::from(0.8..2.2));
+        assert_eq!(ix.key_points(BoldPoints(10)), vec![1.0, 2.0]);
+    }
+
+    #[test]
+    fn small_log_ticks_read_as_powers_of_ten() {
+        let f = super::tick_formatter(1.0, true);
+        assert_eq!(f(&2e-4), "2·10⁻⁴");
+        assert_eq!(f(&1e-4), "10⁻⁴");
+        assert_eq!(f(&5e-5), "5·10⁻⁵");
+        assert_eq!(f(&0.002), "0.002");
+        assert_eq!(f(&3e-4), "", "only 1, 2 and 5 of a decade are labelled");
+        assert_eq!(f(&2000.0), "2k");
+    }
+
+    #[test]
+    fn a_wrapping_phase_breaks_its_line() {
+        let (x, y) = super::phase_breaks(&[1.0, 2.0, 3.0, 4.0], &[-170.0, -179.0, 178.0, 170.0]);
+        assert_eq!(x.len(), 5);
+        assert!(y[2].is_nan() && x[2] == 2.5, "{x:?} {y:?}");
+        assert_eq!(y[3], 178.0);
     }
 
     #[test]

@@ -369,3 +369,25 @@ fn lobes_csv_has_no_empty_column_and_announces_a_second_file() {
     check(&out, &["rpm", "ap_lim_zoa_m", "chatter_hz_zoa"], 12);
     assert!(!sd.exists());
 }
+
+/// A bad pose in a twin file is named as the reports count poses (from 1), with the
+/// file's array index beside it.
+#[test]
+fn a_bad_pose_in_a_twin_file_is_counted_from_1() {
+    let d = tmp();
+    let twin = twin_in(d.path());
+    let text = std::fs::read_to_string(&twin).unwrap();
+    // the first damping ratio becomes negative: an unstable mode at the first pose
+    let at = text.find("\"zeta\": ").unwrap() + "\"zeta\": ".len();
+    let bad = format!("{}-{}", &text[..at], &text[at..]);
+    let path = d.path().join("unstable.json");
+    std::fs::write(&path, bad).unwrap();
+    let o = eval_twin(&path, &d.path().join("f.csv"));
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("pose 1 (`poses[0]`): model has an unstable mode"),
+        "{err}"
+    );
+    assert!(!err.contains("pose 0"), "{err}");
+}

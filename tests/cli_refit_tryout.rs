@@ -11,7 +11,6 @@ mod common;
 use common::*;
 use identify::axis::{Axis, Channel};
 use identify::frf::{fit_percent, Frf};
-use identify::interpolate::TwinEvaluator;
 use identify::model::ModalModel;
 use identify::read::read_frf_csv;
 use identify::twin::Twin;
@@ -89,8 +88,8 @@ fn default_refit_tracks_the_worn_mode_of_the_tryout_gantry() {
     let pose = pose_of(&truth_path);
     let before = Twin::load(&base).unwrap();
     let after = Twin::load(&out).unwrap();
-    let m0 = TwinEvaluator::new(&before).unwrap().model_at(pose).clone();
-    let m1 = TwinEvaluator::new(&after).unwrap().model_at(pose).clone();
+    let m0 = before.model_at(pose).unwrap();
+    let m1 = after.model_at(pose).unwrap();
 
     // the worn mode: the one nearest its healthy frequency, now within 1 % of the worn one
     let k = (0..m0.modes.len())

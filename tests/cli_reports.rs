@@ -2,7 +2,9 @@
 //! the messages and `diagnosis.json`'s `mode_number`; poses printed as `(x, y, z) m` with
 //! three decimals; the diagnosis headline in SPEC codes and its tables without raw JSON;
 //! every pose of the campaign reachable; the lobes' jumps only where a new lobe begins
-//! (an unstable island's tip, checked against the spectral radius).
+//! (an unstable island's tip, checked against the spectral radius); an 18-pose identify
+//! report under 1.5 MB; the refit history and the demo's campaign files counted from 1;
+//! the FRFs drawn as magnitude/phase, real/imaginary or both (`--frf-plot`).
 
 mod common;
 use common::*;
@@ -102,6 +104,36 @@ fn demo_reports_number_modes_from_1_format_poses_and_show_every_pose() {
     assert_poses_formatted("identify.html", &t);
     assert_no_long_floats("identify.html", &t);
 
+    // an 18-pose report opens comfortably: the curves thinned on a log-frequency grid
+    // (peaks kept) and the SVGs compacted (6.6 MB before)
+    let size = std::fs::metadata(dir.join("identify.html")).unwrap().len();
+    assert!(
+        size < 1_500_000,
+        "identify.html of 18 poses is {size} bytes"
+    );
+    // the campaign's files count poses from 1 too
+    let names: Vec<String> = std::fs::read_dir(dir.join("data/campaign"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(
+        names.iter().any(|n| n == "pose01_hammer_x.csv"),
+        "{names:?}"
+    );
+    assert!(
+        names.iter().any(|n| n == "pose18_hammer_y.csv"),
+        "{names:?}"
+    );
+    assert!(!names.iter().any(|n| n.starts_with("pose00")), "{names:?}");
+    // the leave-one-pose-out table gives each pose its number
+    let loo = id
+        .find("<h2>Leave-one-pose-out</h2>")
+        .expect("leave-one-out table");
+    assert!(
+        id[loo..].contains("<tr><td>1</td><td>(0.000, 0.000, 0.000) m</td>"),
+        "leave-one-out rows without the pose number"
+    );
+
     // refit.html: the demo wears the third mode (index 2) and says "mode 3"
     let rf = read(&dir.join("refit.html"));
     let t = text_outside_svg(&rf);
@@ -115,6 +147,17 @@ fn demo_reports_number_modes_from_1_format_poses_and_show_every_pose() {
         "history legend not numbered from 1"
     );
     assert!(!rf.contains("mode 0"), "refit.html: mode 0");
+    // the history counts its entries from 1 (entry 1: the identification)
+    let hist = t.find("<h2>History</h2>").expect("history");
+    let first = t[hist..]
+        .find("<tr><td>")
+        .map(|i| &t[hist + i..hist + i + 12]);
+    assert_eq!(first, Some("<tr><td>1</t"), "history not numbered from 1");
+    assert!(
+        t[hist..].contains("<tr><td>2</td>"),
+        "the refit is not entry 2"
+    );
+    assert!(!t[hist..].contains("<tr><td>0</td>"), "history entry 0");
     assert_poses_formatted("refit.html", &t);
     assert_no_long_floats("refit.html", &t);
 
@@ -150,6 +193,41 @@ fn demo_reports_number_modes_from_1_format_poses_and_show_every_pose() {
     );
     assert_poses_formatted("index.html", &text_outside_svg(&ix));
 
+    // the FRFs as the reader chooses: real and imaginary parts, or both with a switch
+    let files = [
+        dir.join("data/campaign/pose01_hammer_x.csv"),
+        dir.join("data/campaign/pose01_hammer_y.csv"),
+    ];
+    for (view, re_im, mag_phase) in [
+        ("mag-phase", false, true),
+        ("re-im", true, false),
+        ("both", true, true),
+    ] {
+        let html = d.path().join(format!("{view}.html"));
+        let o = mtwin(&[
+            "identify",
+            s(&files[0]),
+            s(&files[1]),
+            "--out",
+            s(&d.path().join(format!("{view}.json"))),
+            "--report",
+            s(&html),
+            "--frf-plot",
+            view,
+            "-q",
+        ]);
+        assert_eq!(o.status.code(), Some(0), "{view}: {}", stderr(&o));
+        let h = read(&html);
+        assert_eq!(h.contains("Re H [µm/N]"), re_im, "{view}: real part");
+        assert_eq!(h.contains("Im H [µm/N]"), re_im, "{view}: imaginary part");
+        assert_eq!(h.contains("phase [°]"), mag_phase, "{view}: phase");
+        assert_eq!(
+            h.contains("type=\"radio\""),
+            view == "both",
+            "{view}: the switch"
+        );
+    }
+
     // the refit's messages number modes from 1 too
     let o = mtwin(&[
         "refit",
@@ -163,6 +241,27 @@ fn demo_reports_number_modes_from_1_format_poses_and_show_every_pose() {
     assert_eq!(o.status.code(), Some(0), "{err}");
     assert!(err.contains("  mode 3: 180.00 Hz"), "{err}");
     assert!(err.contains("modes 3 updated"), "{err}");
+    // and its JSON gives each changed mode's number beside its index
+    let o = mtwin(&[
+        "refit",
+        "--twin",
+        s(&dir.join("twin.json")),
+        s(&dir.join("data/operating/milling_3300rpm.csv")),
+        "--out",
+        s(&d.path().join("r2.json")),
+        "--json",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let modes = v["report"]["modes"].as_array().expect("modes");
+    assert!(!modes.is_empty(), "{v}");
+    for m in modes {
+        assert_eq!(
+            m["mode_number"].as_u64(),
+            m["mode"].as_u64().map(|k| k + 1),
+            "{m}"
+        );
+    }
 }
 
 /// Reads a lobes CSV: (rpm, zoa, sd, f_zoa, f_sd) per row.
@@ -189,8 +288,11 @@ fn lobes_jump_only_where_a_new_lobe_begins_and_the_jump_is_real() {
     let at = machine.center();
     let at_text = format!("{},{},{}", at[0], at[1], at[2]);
     let out = d.path().join("L.csv");
+    let plot = d.path().join("L.svg");
     let o = mtwin(&[
         "lobes",
+        "--plot",
+        s(&plot),
         "--twin",
         s(&twin_path),
         "--at",
@@ -210,6 +312,22 @@ fn lobes_jump_only_where_a_new_lobe_begins_and_the_jump_is_real() {
         "-q",
     ]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    // the plot: both methods, the stable region shaded, the cut's data in the figure
+    let svg = read(&plot);
+    for needle in [
+        "zero-order (Altintas–Budak)",
+        "semi-discretisation (Insperger–Stépán)",
+        "stable (below both limits)",
+        "3 teeth",
+        "ae/D 0.50",
+        "down-milling",
+        "Kt 600 N/mm²",
+        "spindle speed [rpm]",
+        "limiting axial depth of cut [mm]",
+        "<polygon",
+    ] {
+        assert!(svg.contains(needle), "lobes plot lacks {needle}");
+    }
     let rows = lobes_rows(&out);
     let model = {
         let t = Twin::load(&twin_path).unwrap();
@@ -296,4 +414,50 @@ fn lobes_jump_only_where_a_new_lobe_begins_and_the_jump_is_real() {
         drops > 0,
         "no lobe's island tip in 2000-8000 rpm: the check checked nothing"
     );
+}
+
+/// `mtwin frf --report`: each channel's FRF with its coherence, drawn as the reader
+/// chooses, over the band where the coherence holds.
+#[test]
+fn frf_report_draws_each_channel_as_chosen() {
+    let d = tmp();
+    let data = shared_data().join("pyfrf_impact_hammer/impact_5hits.csv");
+    for (view, re_im, mag_phase) in [
+        ("mag-phase", false, true),
+        ("re-im", true, false),
+        ("both", true, true),
+    ] {
+        let html = d.path().join(format!("{view}.html"));
+        let o = mtwin(&[
+            "frf",
+            s(&data),
+            "--out",
+            s(&d.path().join(format!("{view}.csv"))),
+            "--report",
+            s(&html),
+            "--frf-plot",
+            view,
+            "--json",
+        ]);
+        assert_eq!(o.status.code(), Some(0), "{view}: {}", stderr(&o));
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        assert_eq!(v["report"].as_str(), Some(s(&html)), "{v}");
+        let h = read(&html);
+        assert!(h.contains("xx receptance"), "{view}: no xx figure");
+        assert!(h.contains("coherence γ²"), "{view}: no coherence");
+        assert_eq!(h.contains("Re H [µm/N]"), re_im, "{view}: real part");
+        assert_eq!(h.contains("phase [°]"), mag_phase, "{view}: phase");
+        assert_eq!(h.contains("type=\"radio\""), view == "both", "{view}");
+        assert_no_long_floats(view, &text_outside_svg(&h));
+    }
+    // the report is an output: never one of the inputs
+    let o = mtwin(&[
+        "frf",
+        s(&data),
+        "--out",
+        s(&d.path().join("x.csv")),
+        "--report",
+        s(&data),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
 }

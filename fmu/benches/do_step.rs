@@ -3,8 +3,8 @@
 //! (the discretisation is then reused). Target < 1 µs.
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use identify::axis::Axis;
-use identify::twin::Twin;
+use mtwin_core::axis::Axis;
+use mtwin_core::twin::Twin;
 use mtwin_fmu::slave::Slave;
 use vmachine::structure::ModalMachine;
 

@@ -9,12 +9,12 @@
 
 use crate::resources::{utc_iso, FmuTwin};
 use crate::slave::{metres, start_pose, variables, Var};
-use identify::axis::Axis;
-use identify::twin::Twin;
 use model_description::{
     BaseUnit, Category, DefaultExperiment, LogCategories, ModelDescription, Real, Unit,
     UnitDefinitions,
 };
+use mtwin_core::axis::Axis;
+use mtwin_core::twin::Twin;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -53,8 +53,8 @@ impl FmiVersion {
     }
 }
 
-fn bad(msg: String) -> identify::Error {
-    identify::Error::BadInput(msg)
+fn bad(msg: String) -> mtwin_core::Error {
+    mtwin_core::Error::BadInput(msg)
 }
 
 /// Description of every FMU variable: frame, sign and what is read when.
@@ -111,7 +111,7 @@ fn dependencies(twin: &Twin, out: Axis, lo: &[f64; 3], hi: &[f64; 3]) -> Vec<Str
 
 /// `modelDescription.xml` of `twin`'s FMU, generated now.
 pub fn model_description(twin: &Twin) -> ModelDescription {
-    model_description_at(twin, identify::twin::now_unix())
+    model_description_at(twin, mtwin_core::twin::now_unix())
 }
 
 /// `modelDescription.xml` of `twin`'s FMU, generated at `unix_time` (s since 1970, UTC).
@@ -228,7 +228,7 @@ pub fn model_description_at(twin: &Twin, unix_time: u64) -> ModelDescription {
 }
 
 /// Where the slave library is (see the module docs).
-pub fn find_library() -> Result<PathBuf, identify::Error> {
+pub fn find_library() -> Result<PathBuf, mtwin_core::Error> {
     let name = "libmtwin_fmu.so";
     let mut tried = Vec::new();
     if let Some(p) = std::env::var_os("MTWIN_FMU_LIB") {
@@ -264,7 +264,7 @@ pub fn find_library() -> Result<PathBuf, identify::Error> {
         }
         tried.push(p);
     }
-    Err(identify::Error::Numerical(format!(
+    Err(mtwin_core::Error::Numerical(format!(
         "the FMU slave library {name} was not found (looked at {}); build it with \
          `cargo build --release -p mtwin-fmu` or set MTWIN_FMU_LIB",
         tried
@@ -292,7 +292,7 @@ pub struct FmuSize {
 
 /// Writes the FMU of `twin` to `out` (atomically), with the slave library found by
 /// [`find_library`].
-pub fn export_fmu(twin: &Twin, out: &Path) -> Result<FmuSize, identify::Error> {
+pub fn export_fmu(twin: &Twin, out: &Path) -> Result<FmuSize, mtwin_core::Error> {
     export_fmu_with(twin, out, None)
 }
 
@@ -303,7 +303,7 @@ pub fn export_fmu_with(
     twin: &Twin,
     out: &Path,
     embedded: Option<&[u8]>,
-) -> Result<FmuSize, identify::Error> {
+) -> Result<FmuSize, mtwin_core::Error> {
     export_fmu_as(twin, out, embedded, FmiVersion::V2)
 }
 
@@ -324,7 +324,7 @@ pub fn export_fmu_as(
     out: &Path,
     embedded: Option<&[u8]>,
     version: FmiVersion,
-) -> Result<FmuSize, identify::Error> {
+) -> Result<FmuSize, mtwin_core::Error> {
     let xml = model_description_xml(twin, version).map_err(bad)?;
     // the slave needs the pose models only: no FRFs, plans or history (module docs of
     // `resources`)
@@ -340,12 +340,14 @@ pub fn export_fmu_as(
 
 /// The slave library's bytes: `MTWIN_FMU_LIB` when set, else `embedded` when given, else
 /// the one [`find_library`] finds.
-fn library(embedded: Option<&[u8]>) -> Result<std::borrow::Cow<'_, [u8]>, identify::Error> {
+fn library(embedded: Option<&[u8]>) -> Result<std::borrow::Cow<'_, [u8]>, mtwin_core::Error> {
     Ok(match embedded {
         Some(b) if std::env::var_os("MTWIN_FMU_LIB").is_none() => std::borrow::Cow::Borrowed(b),
         _ => {
             let lib = find_library()?;
-            std::borrow::Cow::Owned(std::fs::read(&lib).map_err(|e| identify::Error::io(&lib, e))?)
+            std::borrow::Cow::Owned(
+                std::fs::read(&lib).map_err(|e| mtwin_core::Error::io(&lib, e))?,
+            )
         }
     })
 }
@@ -358,14 +360,14 @@ pub(crate) fn package(
     binary: &str,
     embedded: Option<&[u8]>,
     resources: &[(&str, &[u8])],
-) -> Result<FmuSize, identify::Error> {
+) -> Result<FmuSize, mtwin_core::Error> {
     let so = library(embedded)?;
     let mut buf = std::io::Cursor::new(Vec::new());
     {
         let mut zip = zip::ZipWriter::new(&mut buf);
         let opts = zip::write::SimpleFileOptions::default()
             .compression_method(zip::CompressionMethod::Deflated);
-        let io = |e: std::io::Error| identify::Error::io(out, e);
+        let io = |e: std::io::Error| mtwin_core::Error::io(out, e);
         let zerr = |e: zip::result::ZipError| bad(format!("{}: zip: {e}", out.display()));
         zip.start_file("modelDescription.xml", opts).map_err(zerr)?;
         zip.write_all(xml.as_bytes()).map_err(io)?;
@@ -377,7 +379,7 @@ pub(crate) fn package(
         }
         zip.finish().map_err(zerr)?;
     }
-    identify::atomic::write_atomic(out, buf.get_ref())?;
+    mtwin_core::atomic::write_atomic(out, buf.get_ref())?;
     let res: u64 = resources.iter().map(|(_, b)| b.len() as u64).sum();
     let (xml_n, so_n) = (xml.len() as u64, so.len() as u64);
     Ok(FmuSize {

@@ -10,12 +10,11 @@
 use crate::ffi::*;
 use crate::model::Model;
 use crate::trampoline::{
-    call, deserialize_state, free, free_state, get_state, into_raw, load_slave, no_such,
+    call, deserialize_state, free, free_state, get_state, guard, into_raw, load_slave, no_such,
     resource_dir, serialize_state, set_state, slice, slice_mut, state_size, string, Api, Instance,
     Logger, Status,
 };
 use std::ffi::{c_char, CString};
-use std::panic::catch_unwind;
 
 fn instantiate(
     name: &str,
@@ -58,7 +57,7 @@ pub unsafe extern "C" fn fmi2Instantiate(
     _visible: Fmi2Boolean,
     logging_on: Fmi2Boolean,
 ) -> Fmi2Component {
-    let res = catch_unwind(|| {
+    guard(std::ptr::null_mut(), || {
         // SAFETY: strings are NULL or NUL-terminated (module contract).
         let name = unsafe { string(instance_name) }.unwrap_or_else(|| "mtwin".into());
         // SAFETY: as above.
@@ -86,8 +85,7 @@ pub unsafe extern "C" fn fmi2Instantiate(
                 std::ptr::null_mut()
             }
         }
-    });
-    res.unwrap_or(std::ptr::null_mut())
+    })
 }
 
 /// `fmi2FreeInstance`.

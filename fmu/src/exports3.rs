@@ -15,12 +15,11 @@
 use crate::ffi::*;
 use crate::model::Model;
 use crate::trampoline::{
-    call, deserialize_state, free, free_state, get_state, into_raw, load_slave, no_such,
+    call, deserialize_state, free, free_state, get_state, guard, into_raw, load_slave, no_such,
     resource_dir, serialize_state, set_state, slice, slice_mut, state_size, string, Api, Instance,
     Logger, Status,
 };
 use std::ffi::{c_char, CString};
-use std::panic::catch_unwind;
 use std::path::PathBuf;
 
 /// The resources folder from `resourcePath`: an absolute path with a trailing separator
@@ -92,7 +91,7 @@ pub unsafe extern "C" fn fmi3InstantiateCoSimulation(
     log_message: Fmi3LogMessageCallback,
     _intermediate_update: Fmi3IntermediateUpdateCallback,
 ) -> Fmi3Instance {
-    let res = catch_unwind(|| {
+    guard(std::ptr::null_mut(), || {
         // SAFETY: strings are NULL or NUL-terminated (module contract).
         let name = unsafe { string(instance_name) }.unwrap_or_else(|| "mtwin".into());
         // SAFETY: as above.
@@ -113,8 +112,7 @@ pub unsafe extern "C" fn fmi3InstantiateCoSimulation(
                 std::ptr::null_mut()
             }
         }
-    });
-    res.unwrap_or(std::ptr::null_mut())
+    })
 }
 
 /// `fmi3InstantiateModelExchange`: NULL (Co-Simulation only).

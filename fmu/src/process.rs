@@ -639,14 +639,14 @@ pub fn export_process_fmu(
     cut: &Cut,
     out: &std::path::Path,
     embedded: Option<&[u8]>,
-) -> Result<crate::export::FmuSize, identify::Error> {
-    cut.validate().map_err(identify::Error::BadInput)?;
+) -> Result<crate::export::FmuSize, mtwin_core::Error> {
+    cut.validate().map_err(mtwin_core::Error::BadInput)?;
     let res = CutResource::new(cut.clone());
-    let xml = model_description(cut, &res.guid, identify::twin::now_unix())
+    let xml = model_description(cut, &res.guid, mtwin_core::twin::now_unix())
         .to_xml()
-        .map_err(|e| identify::Error::BadInput(format!("modelDescription.xml: {e}")))?;
+        .map_err(|e| mtwin_core::Error::BadInput(format!("modelDescription.xml: {e}")))?;
     let json = serde_json::to_vec_pretty(&res)
-        .map_err(|e| identify::Error::BadInput(format!("cut.json: {e}")))?;
+        .map_err(|e| mtwin_core::Error::BadInput(format!("cut.json: {e}")))?;
     crate::export::package(
         out,
         &xml,

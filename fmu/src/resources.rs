@@ -12,9 +12,9 @@
 //! [`FmuTwin::from_json`] also accepts a full twin file (schema `mtwin-twin`), as FMUs
 //! exported before the lean resources carried.
 
-use identify::axis::Channel;
-use identify::model::ModalModel;
-use identify::twin::{Extensions, InterpolationInfo, Twin, Units, TWIN_SCHEMA};
+use mtwin_core::axis::Channel;
+use mtwin_core::model::ModalModel;
+use mtwin_core::twin::{Extensions, InterpolationInfo, Twin, Units, TWIN_SCHEMA};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 

@@ -9,10 +9,10 @@
 //! sample by sample, exactly what `mtwin simulate --hold zoh` writes.
 
 use crate::resources::FmuTwin;
-use identify::axis::{Axis, Channel};
-use identify::interpolate::TwinEvaluator;
-use identify::simulate::{Hold, Simulator};
-use identify::twin::Twin;
+use mtwin_core::axis::{Axis, Channel};
+use mtwin_core::interpolate::TwinEvaluator;
+use mtwin_core::simulate::{Hold, Simulator};
+use mtwin_core::twin::Twin;
 
 /// Value references: inputs Fx, Fy, Fz, x, y, z then outputs dx, dy, dz — only the
 /// axes the twin has, numbered in this order from 0.
@@ -247,7 +247,7 @@ pub struct Slave {
     ev: TwinEvaluator,
     sim: Simulator,
     /// External vibrations of the twin's extensions, added to the outputs at the FMU time.
-    disturbance: Vec<identify::twin::Sinusoid>,
+    disturbance: Vec<mtwin_core::twin::Sinusoid>,
     /// Fx, Fy, Fz, x, y, z.
     inputs: [f64; 6],
     start: [f64; 6],
@@ -273,7 +273,7 @@ impl Slave {
 
     /// A slave for the lean twin the FMU carries.
     pub fn from_lean(twin: &FmuTwin) -> Result<Self, String> {
-        let poses: Vec<([f64; 3], &identify::model::ModalModel)> =
+        let poses: Vec<([f64; 3], &mtwin_core::model::ModalModel)> =
             twin.poses.iter().map(|p| (p.pose, &p.model)).collect();
         let ev = TwinEvaluator::from_poses(&poses).map_err(|e| e.to_string())?;
         let (lo, hi) = ev.bounds();
@@ -553,7 +553,7 @@ impl Slave {
 #[cfg(test)]
 mod tests {
     use super::{Slave, Snapshot};
-    use identify::axis::Axis;
+    use mtwin_core::axis::Axis;
     use vmachine::structure::ModalMachine;
 
     /// Found by `scripts/fuzz.sh` (MTWIN_FUZZ_SEED=0x6f232d33687b3532): a restored

@@ -6,14 +6,14 @@
 use crate::export::{export_fmu_with, FmuSize};
 use crate::process::{export_process_fmu, param_names, Cut};
 use crate::slave::{variables, Var};
-use identify::twin::Twin;
+use mtwin_core::twin::Twin;
 use quick_xml::events::{BytesDecl, Event};
 use quick_xml::Writer;
 use std::io::Write;
 use std::path::Path;
 
-fn bad(msg: String) -> identify::Error {
-    identify::Error::BadInput(msg)
+fn bad(msg: String) -> mtwin_core::Error {
+    mtwin_core::Error::BadInput(msg)
 }
 
 /// One connector of a component: name, kind, unit.
@@ -210,7 +210,7 @@ pub fn export_ssp(
     stop_time: f64,
     out: &Path,
     embedded: Option<&[u8]>,
-) -> Result<(FmuSize, FmuSize), identify::Error> {
+) -> Result<(FmuSize, FmuSize), mtwin_core::Error> {
     if !(stop_time.is_finite() && stop_time > 0.0) {
         return Err(bad(format!("stop time {stop_time} s must be positive")));
     }
@@ -220,7 +220,7 @@ pub fn export_ssp(
         export_fmu_with(twin, &tf, embedded)?,
         export_process_fmu(cut, &cf, embedded)?,
     );
-    let read = |p: &Path| std::fs::read(p).map_err(|e| identify::Error::io(p, e));
+    let read = |p: &Path| std::fs::read(p).map_err(|e| mtwin_core::Error::io(p, e));
     let (tb, cb) = (read(&tf)?, read(&cf)?);
     let _ = std::fs::remove_dir_all(&dir);
     let ssd = system_structure(twin, pose, cut, stop_time);
@@ -231,7 +231,7 @@ pub fn export_ssp(
             .compression_method(zip::CompressionMethod::Deflated);
         let stored = zip::write::SimpleFileOptions::default()
             .compression_method(zip::CompressionMethod::Stored);
-        let io = |e: std::io::Error| identify::Error::io(out, e);
+        let io = |e: std::io::Error| mtwin_core::Error::io(out, e);
         let zerr = |e: zip::result::ZipError| bad(format!("{}: zip: {e}", out.display()));
         zip.start_file("SystemStructure.ssd", deflate)
             .map_err(zerr)?;
@@ -242,17 +242,17 @@ pub fn export_ssp(
         }
         zip.finish().map_err(zerr)?;
     }
-    identify::atomic::write_atomic(out, buf.get_ref())?;
+    mtwin_core::atomic::write_atomic(out, buf.get_ref())?;
     Ok(sizes)
 }
 
 /// A fresh folder next to `out` for the two FMUs before they go into the package.
-fn tempfile_dir(out: &Path) -> Result<std::path::PathBuf, identify::Error> {
+fn tempfile_dir(out: &Path) -> Result<std::path::PathBuf, mtwin_core::Error> {
     let parent = out
         .parent()
         .filter(|p| !p.as_os_str().is_empty())
         .unwrap_or(Path::new("."));
     let d = parent.join(format!(".mtwin-ssp-{}", std::process::id()));
-    std::fs::create_dir_all(&d).map_err(|e| identify::Error::io(&d, e))?;
+    std::fs::create_dir_all(&d).map_err(|e| mtwin_core::Error::io(&d, e))?;
     Ok(d)
 }

@@ -147,6 +147,13 @@ impl Instance {
     }
 }
 
+/// The one place a panic is caught: `f()`, or `on_panic` if it panicked (no unwinding
+/// across the C boundary). Generic over the return value (a status, an instance pointer,
+/// nothing), so instantiation and freeing run inside it too; [`call`] builds on it.
+pub(crate) fn guard<R>(on_panic: R, f: impl FnOnce() -> R) -> R {
+    catch_unwind(AssertUnwindSafe(f)).unwrap_or(on_panic)
+}
+
 /// The trampoline: every exported function's body runs inside it (module docs).
 pub(crate) fn call<S: From<Status>>(
     c: *mut c_void,
@@ -169,13 +176,13 @@ pub(crate) fn call<S: From<Status>>(
         );
         return Status::Error.into();
     }
-    let status = match catch_unwind(AssertUnwindSafe(|| f(inst))) {
-        Ok(Ok(s)) => s,
-        Ok(Err(msg)) => {
+    let status = match guard(None, || Some(f(inst))) {
+        Some(Ok(s)) => s,
+        Some(Err(msg)) => {
             inst.log(Status::Error, &format!("{what}: {msg}"));
             Status::Error
         }
-        Err(_) => {
+        None => {
             inst.poisoned = true;
             inst.log(Status::Fatal, &format!("{what}: internal error (panic)"));
             Status::Fatal
@@ -191,7 +198,8 @@ pub(crate) fn call<S: From<Status>>(
 pub(crate) unsafe fn free(c: *mut c_void) {
     if !c.is_null() {
         // SAFETY: `c` came from Box::into_raw in `into_raw` and is freed once.
-        drop(unsafe { Box::from_raw(c as *mut Instance) });
+        let inst = unsafe { Box::from_raw(c as *mut Instance) };
+        guard((), || drop(inst));
     }
 }
 
@@ -431,7 +439,7 @@ pub(crate) unsafe fn deserialize_state(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use identify::axis::Axis;
+    use mtwin_core::axis::Axis;
     use vmachine::structure::ModalMachine;
 
     /// A call that panics returns the fatal status and poisons the instance: every later

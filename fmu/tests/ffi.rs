@@ -6,9 +6,9 @@
 //! `MTWIN_FUZZ_CALLS` (default 20000) sets the number of random calls and
 //! `MTWIN_FUZZ_SEED` (default a fixed seed) the seed; `scripts/fuzz.sh` raises both.
 
-use identify::axis::Axis;
-use identify::twin::Twin;
 use libloading::{Library, Symbol};
+use mtwin_core::axis::Axis;
+use mtwin_core::twin::Twin;
 use std::ffi::{c_char, c_int, c_void, CString};
 use std::path::PathBuf;
 use vmachine::structure::ModalMachine;

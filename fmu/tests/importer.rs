@@ -3,16 +3,16 @@
 //! platform folder of its FMI version (`linux64` / `x86_64-linux`) and drives it through
 //! the `fmi2*` / `fmi3*` C functions. A master loop with moving axes and varying forces
 //! (inputs set at t, outputs read at t, `doStep(t, h)`) agrees with the library's own
-//! simulation (`identify::interpolate::simulate_twin`, the loop behind `mtwin simulate
+//! simulation (`mtwin_core::interpolate::simulate_twin`, the loop behind `mtwin simulate
 //! --hold zoh`) to 1e-9 of the response's peak, and FMI 2.0 agrees with FMI 3.0.
 
 use fmi::fmi2::instance::{CoSimulation as _, Common as _};
 use fmi::fmi3::{CoSimulation as _, Common as _, Fmi3Model as _, GetSet as _};
 use fmi::traits::FmiImport as _;
-use identify::axis::Axis;
-use identify::interpolate::{simulate_twin, TwinEvaluator};
-use identify::simulate::Hold;
-use identify::twin::Twin;
+use mtwin_core::axis::Axis;
+use mtwin_core::interpolate::{simulate_twin, TwinEvaluator};
+use mtwin_core::simulate::Hold;
+use mtwin_core::twin::Twin;
 use mtwin_fmu::export::{export_fmu_as, FmiVersion};
 use std::path::{Path, PathBuf};
 use vmachine::structure::ModalMachine;

@@ -3,9 +3,9 @@
 //! (FMUs exported before); the model description states units, ranges, descriptions and
 //! the direct feedthrough; the slave warns once per excursion outside the measured box.
 
-use identify::axis::Axis;
-use identify::twin::{HistoryEntry, Twin};
 use model_description::ModelDescription;
+use mtwin_core::axis::Axis;
+use mtwin_core::twin::{HistoryEntry, Twin};
 use mtwin_fmu::export::{export_fmu_with, model_description, FmuSize};
 use mtwin_fmu::resources::{FmuTwin, FMU_TWIN_SCHEMA};
 use mtwin_fmu::slave::Slave;
@@ -123,10 +123,12 @@ fn refitted_ten_times_the_fmu_is_no_larger_and_carries_no_history() {
 #[test]
 fn the_slave_reads_a_full_twin_file_like_the_lean_one() {
     let mut twin = campaign_twin();
-    twin.extensions.cubic.push(identify::twin::CubicStiffness {
-        mode: 0,
-        kappa: 1e9,
-    });
+    twin.extensions
+        .cubic
+        .push(mtwin_core::twin::CubicStiffness {
+            mode: 0,
+            kappa: 1e9,
+        });
     let full = serde_json::to_string(&twin).expect("json");
     let lean_text = String::from_utf8(FmuTwin::from_twin(&twin).to_json().unwrap()).unwrap();
     let a = FmuTwin::from_json(&full, Path::new("full.json")).expect("full twin");

@@ -46,7 +46,6 @@
 //! ```
 
 mod data;
-pub(crate) mod linalg;
 mod pf_gram;
 mod varpro;
 mod vf;

@@ -26,7 +26,7 @@
 use crate::eigen;
 use crate::error::{Error, Result};
 use crate::frf::Frf;
-use crate::rational_fit::linalg;
+use crate::linalg;
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
 use std::f64::consts::PI;

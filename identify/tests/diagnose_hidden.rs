@@ -14,6 +14,8 @@ use vmachine::daq::{impact_record, Daq};
 use vmachine::hidden::{delayed, disturbed};
 use vmachine::structure::ModalMachine;
 
+mod hidden_base;
+
 const AXES: [Axis; 2] = [Axis::X, Axis::Y];
 const POSE: [f64; 3] = [0.3, 0.3, 0.2];
 
@@ -25,15 +27,14 @@ fn tests_on(m: &ModalMachine, seed: u64) -> Vec<TimeSeries> {
 }
 
 fn twin(m: &ModalMachine) -> Twin {
-    vmachine::hidden::base_twin(m, &AXES)
+    hidden_base::base_twin(m, &AXES)
 }
 
 #[test]
 fn hidden_effects_are_found_with_their_numbers() {
     // the generator of the confusion table (vmachine::hidden), a fixed handful of seeds
     use vmachine::hidden::{case, Effect};
-    let machine = ModalMachine::default_machine();
-    let tw = twin(&machine);
+    let base = hidden_base::base_twins();
     let opts = DiagnoseOptions::default();
     for seed in [11u64, 12] {
         for (effect, cause, key) in [
@@ -41,7 +42,7 @@ fn hidden_effects_are_found_with_their_numbers() {
             (Effect::UnmodeledMode, Cause::UnmodeledMode, Some("freq_hz")),
             (Effect::ModeChange, Cause::ModeChange, Some("new_freq_hz")),
         ] {
-            let c = case(effect, seed, &tw);
+            let c = case(effect, seed, &base);
             let (d, ext) = diagnose(&c.twin, &c.records, &opts).unwrap();
             eprintln!("seed {seed} {effect:?} -> {:?} {}", d.cause, d.summary);
             assert_eq!(d.cause, cause, "{}", d.summary);

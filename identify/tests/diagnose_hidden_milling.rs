@@ -10,8 +10,10 @@ use identify::twin::Twin;
 use serde_json::Value;
 use std::sync::OnceLock;
 use vmachine::daq::Daq;
-use vmachine::hidden::{base_twin, milling_case, Case, Effect, AXES};
+use vmachine::hidden::{milling_case, Case, Effect, AXES};
 use vmachine::structure::ModalMachine;
+
+mod hidden_base;
 
 // seeds of the confusion table's milling run (seeds 100…119 per effect) whose cases
 // cover both directions where the generator draws one (hardening and softening)
@@ -28,7 +30,7 @@ const SEED_NONLINEAR_B: u64 = 106;
 
 fn base() -> &'static Twin {
     static BASE: OnceLock<Twin> = OnceLock::new();
-    BASE.get_or_init(|| base_twin(&ModalMachine::default_machine(), &AXES))
+    BASE.get_or_init(|| hidden_base::base_twin(&ModalMachine::default_machine(), &AXES))
 }
 
 fn run(effect: Effect, seed: u64) -> (Case, Diagnosis, Twin) {

@@ -505,19 +505,7 @@ impl PyTwin {
         let ts = self::record(py, 0, record, &mut warnings)?;
         let t = &self.inner;
         let y = py
-            .detach(|| -> identify::Result<_> {
-                let ev = TwinEvaluator::new(t)?;
-                identify::extended::check_force_columns(ev.channels(), &ts)?;
-                let forces = identify::simulate::force_rows(&ts);
-                identify::extended::simulate_extended(
-                    t,
-                    &forces,
-                    |i| ts.position_at(i),
-                    ts.t0,
-                    ts.dt,
-                    hold,
-                )
-            })
+            .detach(|| t.simulate(&ts, hold))
             .map_err(|e| py_err(None, e))?;
         let mut arr = Array2::zeros((y.len(), 3));
         for (i, r) in y.iter().enumerate() {

@@ -104,7 +104,7 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
         .par_iter()
         .map(|(i, p, ax)| -> Result<PathBuf> {
             let ts = impact_record(&machine, *p, *ax, &AXES, 3, &daq, 100 + *i as u64);
-            let f = data.join(format!("campaign/pose{i:02}_hammer_{ax}.csv"));
+            let f = data.join(format!("campaign/pose{:02}_hammer_{ax}.csv", i + 1));
             write_timeseries(&f, &ts)?;
             Ok(f)
         })
@@ -134,6 +134,7 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
             pose_tol: 1e-3,
             weighting: "auto".into(),
             report: Some(dir.join("identify.html")),
+            frf_plot: super::identify_report::FrfView::MagPhase,
             name: "demo machine".into(),
             frf_in: super::frf_io::FrfInputArgs {
                 pose: None,
@@ -256,9 +257,10 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
     let band = (100.0, 400.0);
     let before = accuracy_at(&twin, &worn, &[centre], band)?;
     let after = accuracy_at(&twin2, &worn, &[centre], band)?;
+    // one pose: said once, each fit by its channel
     let fmt = |v: &[(String, f64)]| {
         v.iter()
-            .map(|(k, f)| format!("{k} {f:.2} %"))
+            .map(|(k, f)| format!("{} {f:.2} %", k.rsplit(' ').next().unwrap_or(k)))
             .collect::<Vec<_>>()
             .join(", ")
     };
@@ -266,8 +268,9 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
         "refit after wear (vs analytic FRF of the worn machine, 100-400 Hz)".into(),
         format!(
             "method time (the default: the modal update of the modes the data resolve, then \
-             those modes refined by output error on the record itself). Before: {}; after: {}; \
-             history entries {}; {:.1} s; FMU {}",
+             those modes refined by output error on the record itself). At the operating pose \
+             {}: before {}; after {}; history entries {}; {:.1} s; FMU {}",
+            PoseText(centre),
             fmt(&before),
             fmt(&after),
             twin2.history.len(),
@@ -310,7 +313,7 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
             summary.push((
                 "diagnosis (hidden: a new 430 Hz mode)".into(),
                 format!(
-                    "cause {}, held-out fit {:.1} % -> {:.1} %; {}",
+                    "cause {}, held-out fit {:.1} % -> {:.1} %. {}",
                     v["cause"].as_str().unwrap_or("?"),
                     v["fit_before_pct"].as_f64().unwrap_or(f64::NAN),
                     v["fit_after_pct"].as_f64().unwrap_or(f64::NAN),
@@ -375,7 +378,7 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
         <li><a href=\"diagnosis/report.html\">diagnosis/report.html</a> and <code>diagnosis/diagnosis.json</code></li>\
         <li><code>twin.json</code>, <code>twin_refit.json</code> (with history), <code>twin.fmu</code>, <code>twin_refit.fmu</code></li>\
         <li><code>data/</code> — every generated CSV: rerun any step by hand, e.g. <code>mtwin identify data/campaign/*.csv --fmin 30 --fmax 2500 --out t.json</code></li>\
-        </ul><h2>Stability lobes (3 teeth, half immersion, Kt 600 MPa)</h2>\
+        </ul><h2>Stability lobes (3 teeth, half immersion, Kt 600 N/mm²)</h2>\
         <p>The zero-order method (Altintas–Budak) and the semi-discretisation (Insperger–Stépán) \
         at the same speeds; a cut is stable below both lines (shaded). The sharp peaks are the \
         stability pockets where two neighbouring lobes meet; where a line breaks and drops, a new \

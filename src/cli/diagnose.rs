@@ -1,7 +1,7 @@
 //! `mtwin diagnose`.
 
 use super::{read_series, Output};
-use crate::report::{esc, figure, page, Figure, Panel, Scale, Series};
+use crate::report::{esc, figure, page, phase_breaks, Figure, Panel, Scale, Series};
 use anyhow::{Context, Result};
 use identify::diagnose::{diagnose, evidence, slice, split, DiagnoseOptions};
 use identify::extended::simulate_as_measured;
@@ -118,8 +118,18 @@ fn details_rows(d: &serde_json::Map<String, serde_json::Value>) -> String {
             "mode_number" => "mode",
             k => k,
         };
+        // a damping ratio also as the percentage the summary says, a short time in µs
+        let pct = match v.as_f64() {
+            Some(z) if key.contains("damping") && z.abs() < 1.0 => {
+                format!(" ({:.2} %)", 100.0 * z)
+            }
+            Some(t) if key.ends_with("_s") && t != 0.0 && t.abs() < 1e-3 => {
+                format!(" ({:.2} µs)", t * 1e6)
+            }
+            _ => String::new(),
+        };
         rows.push_str(&format!(
-            "<tr><th>{}</th><td>{}</td></tr>",
+            "<tr><th>{}</th><td>{}{pct}</td></tr>",
             esc(key),
             value_text(v)
         ));
@@ -350,6 +360,7 @@ fn report(
                 }
             };
             let ((a0, p0), (a1, p1)) = (model(&m0), model(&m1));
+            let ((f0, p0), (f1, p1)) = (phase_breaks(&fr, &p0), phase_breaks(&fr, &p1));
             let coh: Vec<f64> = idx.iter().map(|&i| g[i]).collect();
             let mag = [
                 Series {
@@ -384,14 +395,14 @@ fn report(
                 },
                 Series {
                     label: "",
-                    x: &fr,
+                    x: &f0,
                     y: &p0,
                     color: 1,
                     points: false,
                 },
                 Series {
                     label: "",
-                    x: &fr,
+                    x: &f1,
                     y: &p1,
                     color: 2,
                     points: false,
@@ -415,7 +426,7 @@ fn report(
                     Panel::new("|H| [µm/N]", Scale::Log, &mag, 250),
                     Panel {
                         yrange: Some((-190.0, 190.0)),
-                        ..Panel::new("phase [°]", Scale::Lin, &ph, 130)
+                        ..Panel::new("phase [°]", Scale::Phase, &ph, 130)
                     },
                     Panel {
                         yrange: Some((0.0, 1.05)),

@@ -46,6 +46,86 @@ pub struct Args {
     /// same; for comparison).
     #[arg(long)]
     pub in_memory: bool,
+    /// Also write an HTML report here: each channel's FRF with its coherence over a log
+    /// frequency axis (docs/reports.md).
+    #[arg(long)]
+    pub report: Option<PathBuf>,
+    /// How the report draws the FRFs: mag-phase, re-im (real and imaginary parts) or
+    /// both (a switch in the page).
+    #[arg(long, value_enum, default_value = "mag-phase")]
+    pub frf_plot: super::identify_report::FrfView,
+}
+
+/// The report of `mtwin frf`: what was estimated from what, then every channel.
+fn frf_report(a: &Args, est: &FrfEstimate, unit: AverageUnit) -> String {
+    use super::identify_report::{channel_figures, view_switch, ChannelPlot, FrfView};
+    use crate::report::{esc, page};
+    let frf = &est.frf;
+    let f = &frf.freqs_hz;
+    // drawn: from the first line where some channel's coherence stays at 0.5 or more
+    // over 5 lines to the last such line (an accelerometer's receptance at the lowest
+    // lines is noise over ω² and would set the scale of a linear real/imaginary plot; a
+    // single line of few averages can reach 0.5 by chance)
+    const RUN: usize = 5;
+    let trusted = |k: usize| {
+        frf.channels.iter().any(|c| {
+            c.coherence.as_ref().is_none_or(|g| {
+                let lo = k.saturating_sub(RUN / 2);
+                let hi = (lo + RUN).min(g.len());
+                g[lo..hi].iter().all(|v| *v >= 0.5)
+            })
+        })
+    };
+    let first = (0..f.len()).find(|&k| f[k] > 0.0 && trusted(k));
+    let last = (0..f.len()).rev().find(|&k| f[k] > 0.0 && trusted(k));
+    let keep: Vec<usize> = match (first, last) {
+        (Some(a), Some(z)) if z > a => (a..=z).collect(),
+        _ => (0..f.len()).filter(|&k| f[k] > 0.0).collect(),
+    };
+    let band = [
+        keep.first().map_or(1.0, |&k| f[k]),
+        keep.last().map_or(2.0, |&k| f[k]),
+    ];
+    let mut b = format!(
+        "<p>{} from {}: {}; {} estimator, {} used, {} dropped. Receptance in µm/N, drawn \
+         from {:.1} to {:.1} Hz (where some channel's coherence first and last stays \
+         at 0.5 or more over 5 lines; the file holds every line); where the coherence is low the estimate \
+         is not to be trusted.</p>",
+        esc(&a.out.display().to_string()),
+        esc(&a
+            .files
+            .iter()
+            .map(|f| f.display().to_string())
+            .collect::<Vec<_>>()
+            .join(", ")),
+        esc(&est.method),
+        a.estimator.to_uppercase(),
+        unit.count(est.hits_used),
+        est.hits_dropped.len(),
+        band[0],
+        band[1],
+    );
+    if a.frf_plot == FrfView::Both {
+        b.push_str(view_switch());
+    }
+    b.push_str("<div class=\"poses\">");
+    for ch in &frf.channels {
+        channel_figures(
+            &mut b,
+            &ChannelPlot {
+                head: &format!("{} receptance", ch.channel),
+                fit_pct: None,
+                freqs: &frf.freqs_hz,
+                keep: &keep,
+                ch,
+                model: None,
+                band,
+                view: a.frf_plot,
+            },
+        );
+    }
+    b.push_str("</div>");
+    page("mtwin frf", &b)
 }
 
 /// How the records were read.
@@ -166,6 +246,9 @@ pub fn frf_options(estimator: &str, excitation: &str, nfft: Option<usize>) -> Fr
 /// Runs `mtwin frf`.
 pub fn run(a: Args, out: &Output) -> Result<()> {
     check_output_not_input(&a.out, &a.files)?;
+    if let Some(r) = &a.report {
+        check_output_not_input(r, &a.files)?;
+    }
     let opts = frf_options(&a.estimator, &a.excitation, a.nfft);
     let (est, reading) = estimate(&a, &opts, out)?;
     if let Reading::Streamed { rows } = reading {
@@ -202,8 +285,13 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
         est.hits_dropped.len(),
         a.out.display()
     ));
+    if let Some(r) = &a.report {
+        let html = frf_report(&a, &est, unit);
+        identify::atomic::write_atomic(r, html.as_bytes())?;
+        out.say(format!("report -> {}", r.display()));
+    }
     out.json(&serde_json::json!({
-        "out": a.out, "method": est.method, "df_hz": est.df_hz, "hits_used": est.hits_used,
+        "out": a.out, "report": a.report, "method": est.method, "df_hz": est.df_hz, "hits_used": est.hits_used,
         "averages": est.hits_used, "averages_of": unit.plural(),
         "hits_dropped": est.hits_dropped, "warnings": est.warnings, "channels": chans,
         "exp_window_sigma": est.exp_window_sigma, "reading": reading.name(),

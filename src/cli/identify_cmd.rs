@@ -45,9 +45,14 @@ pub struct Args {
     #[arg(long, default_value = "auto", value_parser = ["auto", "coherence", "ml", "balanced", "mobility"])]
     pub weighting: String,
     /// Also write an HTML report (FRFs, coherence, stabilization diagram, modes across
-    /// the workspace) here.
+    /// the workspace) here (docs/reports.md).
     #[arg(long)]
     pub report: Option<PathBuf>,
+    /// How the report draws the FRFs: mag-phase (magnitude on a log axis and phase),
+    /// re-im (real and imaginary parts) or both (a switch in the page; about twice the
+    /// size).
+    #[arg(long, value_enum, default_value = "mag-phase")]
+    pub frf_plot: super::identify_report::FrfView,
     /// Name of the machine, written into the twin.
     #[arg(long, default_value = "machine")]
     pub name: String,
@@ -218,7 +223,7 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
     }
     out.say(format!("twin -> {}", a.out.display()));
     if let Some(r) = &a.report {
-        let html = super::identify_report::identify_report(twin, &res.diagrams);
+        let html = super::identify_report::identify_report(twin, &res.diagrams, a.frf_plot);
         identify::atomic::write_atomic(r, html.as_bytes())?;
         out.say(format!("report -> {}", r.display()));
     }

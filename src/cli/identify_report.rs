@@ -4,17 +4,22 @@
 //! multiples of all poses, the modes across the workspace and leave-one-pose-out accuracy.
 //! Modes and poses are numbered from 1.
 
-use crate::report::{esc, figure, page, stabilization_figure, thin, Figure, Panel, Scale, Series};
+use crate::report::{
+    esc, figure, legend_html, page, phase_breaks, stabilization_figure, thin, Figure, Panel, Scale,
+    Series,
+};
 use identify::axis::PoseText;
+use identify::frf::FrfChannel;
 use identify::model::{ModalModel, Mode, ModeNum};
 use identify::stabilization::StabilizationDiagram;
 use identify::twin::{ChannelFit, PoseModel, Twin};
+use num_complex::Complex64;
 use std::f64::consts::PI;
 use std::fmt::Write as _;
 
 /// Most points drawn per line (the FRF is thinned to the extremes of log-spaced buckets,
 /// so no resonance peak is lost).
-const MAX_POINTS: usize = 400;
+const MAX_POINTS: usize = 300;
 
 /// Modal constant `A` of one mode in one channel (m/N·rad²/s²; for a real mode the
 /// numerator `b0`): the magnitude of `b1 p + b0` at the pole, signed by its real part.
@@ -46,7 +51,16 @@ fn stiffness_text(mode: &Mode, num: &ModeNum, largest: f64) -> (String, String) 
         return ("—".into(), "—".into());
     }
     let k = mode.wn * mode.wn / a;
-    (format!("{:.3}", k * 1e-6), format!("{:.3}", 1.0 / a))
+    (sig4(k * 1e-6), sig4(1.0 / a))
+}
+
+/// Four significant digits (the fit carries no more): `68.47`, `14243`, `0.5120`.
+fn sig4(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return format!("{v}");
+    }
+    let decimals = (3 - v.abs().log10().floor() as i32).clamp(0, 8) as usize;
+    format!("{v:.decimals$}")
 }
 
 /// A channel's fit: against the measured FRF, what the noise allows, and the estimate
@@ -159,7 +173,7 @@ fn modes_summary(twin: &Twin) -> String {
                 .collect();
             // shown where the mode is seen in this channel at most poses
             if 2 * ks.len() > twin.poses.len() {
-                let _ = write!(b, "<td>{:.3}</td>", median(&mut ks));
+                let _ = write!(b, "<td>{}</td>", sig4(median(&mut ks)));
             } else {
                 b.push_str("<td>—</td>");
             }
@@ -186,15 +200,97 @@ fn xscale(band: [f64; 2]) -> Scale {
     }
 }
 
-/// Magnitude [µm/N], phase and coherence of every channel of a pose: measured vs model.
-fn pose_frfs(b: &mut String, i: usize, p: &PoseModel) {
+/// How the report draws an FRF: the reader's choice (`mtwin identify --frf-plot`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum FrfView {
+    /// Magnitude on a log axis and phase (the Bode form: resonances and their width).
+    MagPhase,
+    /// Real and imaginary parts (the co-/quad-spectrum form: a mode's imaginary peak and
+    /// its real part's zero crossing, the signs of the modal constants).
+    ReIm,
+    /// Both, with a switch at the top of the poses (about twice the size).
+    Both,
+}
+
+/// The FRF of every channel of a pose, measured vs model, with the coherence: magnitude
+/// \[µm/N\] and phase, or real and imaginary parts, or both (`view`).
+fn pose_frfs(b: &mut String, i: usize, p: &PoseModel, view: FrfView) {
     let keep = band_lines(p);
-    let f = &p.frf.freqs_hz;
-    let fx_all: Vec<f64> = keep.iter().map(|&k| f[k]).collect();
     for ch in &p.frf.channels {
         let Some(ci) = p.model.channel_index(ch.channel) else {
             continue;
         };
+        let fit = p
+            .fit
+            .iter()
+            .find(|x| x.channel == ch.channel)
+            .map_or(0.0, |x| x.fit_pct);
+        let model = |f: f64| p.model.eval_hz(ci, f);
+        channel_figures(
+            b,
+            &ChannelPlot {
+                head: &format!("Pose {}: {} receptance", i + 1, ch.channel),
+                fit_pct: Some(fit),
+                freqs: &p.frf.freqs_hz,
+                keep: &keep,
+                ch,
+                model: Some(&model),
+                band: p.band_hz,
+                view,
+            },
+        );
+    }
+}
+
+/// One channel's FRF to draw: the measured lines `keep` of `freqs`, and the model when
+/// there is one.
+pub struct ChannelPlot<'a> {
+    /// Start of the titles, e.g. `Pose 1: xx receptance`.
+    pub head: &'a str,
+    /// The model's fit to the measured FRF \[%\], said in the titles.
+    pub fit_pct: Option<f64>,
+    /// All frequency lines \[Hz\].
+    pub freqs: &'a [f64],
+    /// The lines drawn (positive frequencies within the band).
+    pub keep: &'a [usize],
+    /// The measured channel (receptance in m/N, coherence).
+    pub ch: &'a FrfChannel,
+    /// The model's receptance \[m/N\] at a frequency \[Hz\].
+    pub model: Option<&'a dyn Fn(f64) -> Complex64>,
+    /// The band drawn \[Hz\].
+    pub band: [f64; 2],
+    /// Magnitude and phase, real and imaginary parts, or both.
+    pub view: FrfView,
+}
+
+/// The figures of one channel (`c.view`), each in a `div` of class `magph` or `reim` (the
+/// switch of [`FrfView::Both`] hides one class), with the coherence under the FRF.
+pub fn channel_figures(b: &mut String, c: &ChannelPlot<'_>) {
+    let ch = c.ch;
+    let keep = c.keep;
+    let fx_all: Vec<f64> = keep.iter().map(|&k| c.freqs[k]).collect();
+    let xrange = |fx: &[f64]| Some((c.band[0].max(fx.first().copied().unwrap_or(1.0)), c.band[1]));
+    let coherence = |sel: &[usize]| -> Vec<f64> {
+        ch.coherence
+            .as_ref()
+            .map(|g| sel.iter().map(|&j| g[keep[j]]).collect())
+            .unwrap_or_default()
+    };
+    // one line needs no legend
+    let (lm, lf) = if c.model.is_some() {
+        ("measured", "model")
+    } else {
+        ("", "")
+    };
+    let fit = c
+        .fit_pct
+        .map_or(String::new(), |f| format!(" (fit {f:.1} %)"));
+    let eval = |fx: &[f64]| -> Vec<Complex64> {
+        c.model
+            .map(|m| fx.iter().map(|&x| m(x) * 1e6).collect())
+            .unwrap_or_default()
+    };
+    if c.view != FrfView::ReIm {
         let meas_all: Vec<f64> = keep.iter().map(|&k| ch.h[k].norm() * 1e6).collect();
         let sel = thin(&fx_all, &meas_all, MAX_POINTS);
         let fx: Vec<f64> = sel.iter().map(|&j| fx_all[j]).collect();
@@ -203,91 +299,110 @@ fn pose_frfs(b: &mut String, i: usize, p: &PoseModel) {
             .iter()
             .map(|&j| ch.h[keep[j]].arg() * 180.0 / PI)
             .collect();
-        let model: Vec<_> = fx.iter().map(|&x| p.model.eval_hz(ci, x)).collect();
-        let mod_mag: Vec<f64> = model.iter().map(|v| v.norm() * 1e6).collect();
+        let model = eval(&fx);
+        let mod_mag: Vec<f64> = model.iter().map(|v| v.norm()).collect();
         let mod_ph: Vec<f64> = model.iter().map(|v| v.arg() * 180.0 / PI).collect();
-        let mag = [
-            Series {
-                label: "measured",
-                x: &fx,
-                y: &meas_mag,
-                color: 0,
-                points: false,
-            },
-            Series {
-                label: "model",
-                x: &fx,
-                y: &mod_mag,
-                color: 1,
-                points: false,
-            },
-        ];
+        let (px, mod_ph) = phase_breaks(&fx[..mod_ph.len()], &mod_ph);
+        let mag = [line(lm, &fx, &meas_mag, 0), line(lf, &fx, &mod_mag, 1)];
         let ph = [
             Series {
-                label: "",
-                x: &fx,
-                y: &meas_ph,
-                color: 0,
                 points: true,
+                ..line("", &fx, &meas_ph, 0)
             },
-            Series {
-                label: "",
-                x: &fx,
-                y: &mod_ph,
-                color: 1,
-                points: false,
-            },
+            line("", &px, &mod_ph, 1),
         ];
-        let coh: Vec<f64> = ch
-            .coherence
-            .as_ref()
-            .map(|g| sel.iter().map(|&j| g[keep[j]]).collect())
-            .unwrap_or_default();
-        let coh_s = [Series {
-            label: "",
-            x: &fx,
-            y: &coh,
-            color: 2,
-            points: false,
-        }];
+        let coh = coherence(&sel);
+        let coh_s = [line("", &fx, &coh, 2)];
+        let n = if c.model.is_some() { 2 } else { 1 };
         let mut panels = vec![
-            Panel::new("|H| [µm/N]", Scale::Log, &mag, 250),
+            Panel::new("|H| [µm/N]", Scale::Log, &mag[..n], 250),
             Panel {
                 yrange: Some((-190.0, 190.0)),
-                ..Panel::new("phase [°]", Scale::Lin, &ph, 140)
+                ..Panel::new("phase [°]", Scale::Phase, &ph[..n], 140)
             },
         ];
         if !coh.is_empty() {
             panels.push(Panel {
                 yrange: Some((0.0, 1.05)),
-                ..Panel::new("coherence", Scale::Lin, &coh_s, 100)
+                ..Panel::new("coherence γ²", Scale::Lin, &coh_s, 100)
             });
         }
-        let fit = p
-            .fit
-            .iter()
-            .find(|x| x.channel == ch.channel)
-            .map_or(0.0, |x| x.fit_pct);
-        let title = format!(
-            "Pose {}: {} receptance, measured vs model (fit {fit:.1} %)",
-            i + 1,
-            ch.channel
-        );
-        let _ = writeln!(
-            b,
-            "{}",
-            figure(&Figure {
-                title: &title,
-                xlabel: "frequency [Hz]",
-                xscale: xscale(p.band_hz),
-                xrange: Some((
-                    p.band_hz[0].max(fx.first().copied().unwrap_or(1.0)),
-                    p.band_hz[1]
-                )),
-                width: 760,
-                panels: &panels,
-            })
-        );
+        let title = if c.model.is_some() {
+            format!("{}, measured vs model{fit}", c.head)
+        } else {
+            format!("{}, magnitude and phase", c.head)
+        };
+        let svg = figure(&Figure {
+            title: &title,
+            xlabel: "frequency [Hz]",
+            xscale: xscale(c.band),
+            xrange: xrange(&fx),
+            width: 760,
+            panels: &panels,
+        });
+        let _ = writeln!(b, "<div class=\"magph\">{svg}</div>");
+    }
+    if c.view != FrfView::MagPhase {
+        // the extremes of both parts kept: a mode's imaginary peak and the real part's
+        // two extremes either side of it
+        let re_all: Vec<f64> = keep.iter().map(|&k| ch.h[k].re * 1e6).collect();
+        let im_all: Vec<f64> = keep.iter().map(|&k| ch.h[k].im * 1e6).collect();
+        let mut sel = thin(&fx_all, &re_all, MAX_POINTS / 2);
+        sel.extend(thin(&fx_all, &im_all, MAX_POINTS / 2));
+        sel.sort_unstable();
+        sel.dedup();
+        let fx: Vec<f64> = sel.iter().map(|&j| fx_all[j]).collect();
+        let meas_re: Vec<f64> = sel.iter().map(|&j| re_all[j]).collect();
+        let meas_im: Vec<f64> = sel.iter().map(|&j| im_all[j]).collect();
+        let model = eval(&fx);
+        let mod_re: Vec<f64> = model.iter().map(|v| v.re).collect();
+        let mod_im: Vec<f64> = model.iter().map(|v| v.im).collect();
+        let re = [line(lm, &fx, &meas_re, 0), line(lf, &fx, &mod_re, 1)];
+        let im = [line("", &fx, &meas_im, 0), line("", &fx, &mod_im, 1)];
+        let coh = coherence(&sel);
+        let coh_s = [line("", &fx, &coh, 2)];
+        let n = if c.model.is_some() { 2 } else { 1 };
+        let mut panels = vec![
+            Panel::new("Re H [µm/N]", Scale::Lin, &re[..n], 200),
+            Panel::new("Im H [µm/N]", Scale::Lin, &im[..n], 200),
+        ];
+        if !coh.is_empty() {
+            panels.push(Panel {
+                yrange: Some((0.0, 1.05)),
+                ..Panel::new("coherence γ²", Scale::Lin, &coh_s, 100)
+            });
+        }
+        let title = format!("{}, real and imaginary parts{fit}", c.head);
+        let svg = figure(&Figure {
+            title: &title,
+            xlabel: "frequency [Hz]",
+            xscale: xscale(c.band),
+            xrange: xrange(&fx),
+            width: 760,
+            panels: &panels,
+        });
+        let _ = writeln!(b, "<div class=\"reim\">{svg}</div>");
+    }
+}
+
+/// The switch between the two kinds of FRF figure of [`FrfView::Both`], without a
+/// script: the checked radio button hides the other kind in the `div.poses` after it.
+pub fn view_switch() -> &'static str {
+    "<style>#frf-mp:checked~.poses .reim,#frf-ri:checked~.poses .magph\
+     {display:none}</style><input type=\"radio\" name=\"frf-view\" id=\"frf-mp\" \
+     checked><label for=\"frf-mp\">magnitude / phase</label> \
+     <input type=\"radio\" name=\"frf-view\" id=\"frf-ri\"><label for=\"frf-ri\">\
+     real / imaginary</label>"
+}
+
+/// A line of a plot.
+fn line<'a>(label: &'a str, x: &'a [f64], y: &'a [f64], color: usize) -> Series<'a> {
+    Series {
+        label,
+        x,
+        y,
+        color,
+        points: false,
     }
 }
 
@@ -302,7 +417,7 @@ fn small_multiples(twin: &Twin) -> String {
             .iter()
             .map(|&k| p.frf.channels.iter().map(|c| c.h[k].norm()).sum::<f64>() * 1e6)
             .collect();
-        let sel = thin(&fx_all, &meas_all, 250);
+        let sel = thin(&fx_all, &meas_all, 200);
         let fx: Vec<f64> = sel.iter().map(|&j| fx_all[j]).collect();
         let meas: Vec<f64> = sel.iter().map(|&j| meas_all[j]).collect();
         let model: Vec<f64> = fx
@@ -348,8 +463,8 @@ fn small_multiples(twin: &Twin) -> String {
     b
 }
 
-/// Builds the report page.
-pub fn identify_report(twin: &Twin, diagrams: &[StabilizationDiagram]) -> String {
+/// Builds the report page; the FRFs drawn as `view` says.
+pub fn identify_report(twin: &Twin, diagrams: &[StabilizationDiagram], view: FrfView) -> String {
     let mut b = String::new();
     let _ = writeln!(
         b,
@@ -445,12 +560,18 @@ pub fn identify_report(twin: &Twin, diagrams: &[StabilizationDiagram]) -> String
             b,
             "<h2>Leave-one-pose-out</h2><p>Each measured pose predicted from the others \
              by the interpolation, scored against its measured FRF.</p><table>\
-             <tr><th>pose</th><th>fit per channel</th></tr>"
+             <tr><th>pose</th><th>position</th><th>fit per channel</th></tr>"
         );
         for e in loo {
+            // the pose's number as in the tables above
+            let n = twin
+                .poses
+                .iter()
+                .position(|p| p.pose == e.pose)
+                .map_or("—".to_string(), |i| (i + 1).to_string());
             let _ = writeln!(
                 b,
-                "<tr><td>{}</td><td>{}</td></tr>",
+                "<tr><td>{n}</td><td>{}</td><td>{}</td></tr>",
                 PoseText(e.pose),
                 e.fit
                     .iter()
@@ -474,14 +595,23 @@ pub fn identify_report(twin: &Twin, diagrams: &[StabilizationDiagram]) -> String
             })
             .collect();
         let labels: Vec<String> = (0..n_modes).map(|k| format!("mode {}", k + 1)).collect();
+        // a line and a dot per pose for each mode; the legend under the plot (inside, it
+        // would hide the modes at the top)
         let series: Vec<Series<'_>> = (0..n_modes)
-            .map(|k| Series {
-                label: &labels[k],
-                x: &idx,
-                y: &freqs[k],
-                color: k + 1,
-                points: false,
+            .flat_map(|k| {
+                [false, true].map(|points| Series {
+                    label: "",
+                    x: &idx,
+                    y: &freqs[k],
+                    color: k + 1,
+                    points,
+                })
             })
+            .collect();
+        let legend: Vec<(&str, usize)> = labels
+            .iter()
+            .enumerate()
+            .map(|(k, l)| (l.as_str(), k + 1))
             .collect();
         let _ = writeln!(
             b,
@@ -490,8 +620,8 @@ pub fn identify_report(twin: &Twin, diagrams: &[StabilizationDiagram]) -> String
             figure(&Figure {
                 title: "Tracked modes",
                 xlabel: "pose",
-                xscale: Scale::Lin,
-                xrange: None,
+                xscale: Scale::Index,
+                xrange: Some((0.5, twin.poses.len() as f64 + 0.5)),
                 width: 760,
                 panels: &[Panel::new(
                     "natural frequency [Hz]",
@@ -499,14 +629,27 @@ pub fn identify_report(twin: &Twin, diagrams: &[StabilizationDiagram]) -> String
                     &series,
                     330
                 )],
-            })
+            }) + &legend_html(&legend)
         );
     }
     let _ = writeln!(
         b,
-        "<h2>Every pose</h2><p>Open a pose for its modes, its FRFs (magnitude, phase, \
-         coherence) and its stabilization diagram.</p>"
+        "<h2>Every pose</h2><p>Open a pose for its modes, its FRFs with the coherence and its \
+         stabilization diagram. The FRFs are drawn as {}.</p>",
+        match view {
+            FrfView::MagPhase =>
+                "magnitude and phase (<code>--frf-plot re-im</code>: real and \
+                                  imaginary parts; <code>both</code>: a switch)",
+            FrfView::ReIm =>
+                "real and imaginary parts (<code>--frf-plot mag-phase</code>: \
+                              magnitude and phase; <code>both</code>: a switch)",
+            FrfView::Both => "magnitude and phase or real and imaginary parts, as chosen here",
+        }
     );
+    if view == FrfView::Both {
+        b.push_str(view_switch());
+    }
+    b.push_str("<div class=\"poses\">");
     for (i, p) in twin.poses.iter().enumerate() {
         let fits = p
             .fit
@@ -534,12 +677,13 @@ pub fn identify_report(twin: &Twin, diagrams: &[StabilizationDiagram]) -> String
             },
             p.fit.iter().map(fit_text).collect::<Vec<_>>().join("; ")
         );
-        pose_frfs(&mut b, i, p);
+        pose_frfs(&mut b, i, p, view);
         if let Some(d) = diagrams.get(i) {
             let _ = writeln!(b, "{}", diagram_plot(i, d, p));
         }
         let _ = writeln!(b, "</details>");
     }
+    b.push_str("</div>");
     page("mtwin identify", &b)
 }
 
@@ -563,7 +707,15 @@ fn diagram_plot(i: usize, d: &StabilizationDiagram, p: &PoseModel) -> String {
             y.push(o.order as f64);
         }
     }
-    let px: Vec<f64> = d.physical.iter().map(|m| m.f_hz).collect();
+    // the modes the twin holds at this pose (the order search may add some to the
+    // diagram's physical modes)
+    let px: Vec<f64> = p
+        .model
+        .modes
+        .iter()
+        .map(|m| m.freq_hz())
+        .filter(|f| *f >= band[0] && *f <= band[1])
+        .collect();
     let top = d.orders.last().map_or(0.0, |o| o.order as f64) + 1.0;
     let py: Vec<f64> = vec![top; px.len()];
     let keep = band_lines(p);
@@ -578,8 +730,8 @@ fn diagram_plot(i: usize, d: &StabilizationDiagram, p: &PoseModel) -> String {
     let lo = band[0].max(fs.first().copied().unwrap_or(1.0));
     format!(
         "<p>Stabilization diagram: poles per model order; \"stable\" = frequency and \
-         damping agree with the previous order; the physical modes chosen are marked on \
-         top; the grey line is the sum of the measured |H| over the channels.</p>{}",
+         damping agree with the previous order; the twin's modes at this pose are the \
+         triangles on top; the grey line is the sum of the measured |H| over the channels.</p>{}",
         stabilization_figure(
             &format!("Pose {}: stabilization diagram over the FRF sum", i + 1),
             &[
@@ -605,7 +757,7 @@ fn diagram_plot(i: usize, d: &StabilizationDiagram, p: &PoseModel) -> String {
                     points: true
                 },
                 Series {
-                    label: "physical modes",
+                    label: "modes of the twin",
                     x: &px,
                     y: &py,
                     color: 1,

@@ -133,6 +133,18 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
         new.history.len(),
         a.out.display()
     ));
-    out.json(&serde_json::json!({"out": a.out, "report": rep, "fmu": a.fmu}));
+    // each changed mode also counted from 1, as the reports and messages count it
+    let mut rep_json = serde_json::to_value(&rep)?;
+    if let Some(modes) = rep_json
+        .get_mut("modes")
+        .and_then(serde_json::Value::as_array_mut)
+    {
+        for m in modes {
+            if let Some(k) = m.get("mode").and_then(serde_json::Value::as_u64) {
+                m["mode_number"] = serde_json::json!(k + 1);
+            }
+        }
+    }
+    out.json(&serde_json::json!({"out": a.out, "report": rep_json, "fmu": a.fmu}));
     Ok(())
 }

@@ -3,7 +3,9 @@
 //! modes that changed, how the change spread over the poses, and the whole history with
 //! the mode frequencies over the machine's life.
 
-use crate::report::{esc, figure, page, plot, Figure, Panel, Scale, Series};
+use crate::report::{
+    esc, figure, legend_html, page, phase_breaks, plot, Figure, Panel, Scale, Series,
+};
 use identify::axis::PoseText;
 use identify::model::ModalModel;
 use identify::operating::operating_spectra;
@@ -191,7 +193,11 @@ fn frf_section(b: &mut String, old: &Twin, new: &Twin, rep: &RefitReport, series
         let ph = |v: &[num_complex::Complex64]| {
             v.iter().map(|c| c.arg() * 180.0 / PI).collect::<Vec<_>>()
         };
-        let (mb, ma, pb, pa) = (mag(&before), mag(&after), ph(&before), ph(&after));
+        let (mb, ma) = (mag(&before), mag(&after));
+        let ((fb, pb), (fa, pa)) = (
+            phase_breaks(&f, &ph(&before)),
+            phase_breaks(&f, &ph(&after)),
+        );
         let name = ch.name();
         let mags = [
             Series {
@@ -226,14 +232,14 @@ fn frf_section(b: &mut String, old: &Twin, new: &Twin, rep: &RefitReport, series
             },
             Series {
                 label: "",
-                x: &f,
+                x: &fb,
                 y: &pb,
                 color: 2,
                 points: false,
             },
             Series {
                 label: "",
-                x: &f,
+                x: &fa,
                 y: &pa,
                 color: 1,
                 points: false,
@@ -249,7 +255,7 @@ fn frf_section(b: &mut String, old: &Twin, new: &Twin, rep: &RefitReport, series
                 Panel::new("|H| [µm/N]", Scale::Log, &mags, 260),
                 Panel {
                     yrange: Some((-190.0, 190.0)),
-                    ..Panel::new("phase [°]", Scale::Lin, &phs, 140)
+                    ..Panel::new("phase [°]", Scale::Phase, &phs, 140)
                 },
             ],
         }));
@@ -332,47 +338,90 @@ fn utc(t: u64) -> String {
     format!("{} {}", &iso[..10], &iso[11..16])
 }
 
+/// The files of a history entry: up to three by name; more as their number and common
+/// folder, the names folded away.
+fn files_cell(files: &[String]) -> String {
+    if files.len() <= 3 {
+        return esc(&files.join(", "));
+    }
+    let dir = |f: &str| {
+        std::path::Path::new(f)
+            .parent()
+            .map(|p| p.display().to_string())
+            .unwrap_or_default()
+    };
+    let first = dir(&files[0]);
+    let common = files.iter().all(|f| dir(f) == first);
+    let names: Vec<String> = files
+        .iter()
+        .map(|f| {
+            if common {
+                std::path::Path::new(f)
+                    .file_name()
+                    .map_or(f.clone(), |n| n.to_string_lossy().into_owned())
+            } else {
+                f.clone()
+            }
+        })
+        .collect();
+    format!(
+        "<details><summary>{} files{}</summary>{}</details>",
+        files.len(),
+        if common {
+            format!(" in <code>{}</code>", esc(&first))
+        } else {
+            String::new()
+        },
+        esc(&names.join(", "))
+    )
+}
+
 /// The history table and the mode frequencies at `pose` over the twin's life.
 fn history_section(b: &mut String, twin: &Twin, pose: [f64; 3]) {
     let _ = writeln!(
         b,
         "<h2>History</h2><p>Every change the twin went through; each entry keeps the pose \
-         models as they were before it, so no earlier model is lost.</p><table><tr><th>#</th>\
+         models as they were before it, so no earlier model is lost. Entries are numbered \
+         from 1 (entry 1: the identification).</p><table><tr><th>entry</th>\
          <th>time (UTC)</th><th>kind</th><th>files</th><th>what changed</th></tr>"
     );
     for (i, h) in twin.history.iter().enumerate() {
         let _ = writeln!(
             b,
-            "<tr><td>{i}</td><td>{}</td><td>{}</td><td style=\"text-align:left\">{}</td>\
-             <td style=\"text-align:left\">{}</td></tr>",
+            "<tr><td>{}</td><td style=\"white-space:nowrap\">{}</td><td>{}</td>\
+             <td style=\"text-align:left\">{}</td><td style=\"text-align:left\">{}</td></tr>",
+            i + 1,
             utc(h.unix_time),
             esc(&h.kind),
-            esc(&h.files.join(", ")),
+            files_cell(&h.files),
             esc(&h.summary)
         );
     }
     let _ = writeln!(b, "</table>");
     // the model at `pose` after each entry: entry k+1's previous_poses is the state after
     // entry k; the current twin is the state after the last entry
-    let mut states: Vec<ModalModel> = Vec::new();
-    for h in twin.history.iter().skip(1) {
+    // (entry number from 1, the model after it): `history[j].previous_poses` is the
+    // twin after entry j (counted from 1); an entry without them leaves a gap
+    let mut states: Vec<(usize, ModalModel)> = Vec::new();
+    for (j, h) in twin.history.iter().enumerate().skip(1) {
         if h.previous_poses.is_empty() {
             continue;
         }
         let mut t = twin.clone();
         t.poses = h.previous_poses.clone();
         if let Some(m) = model_at(&t, pose) {
-            states.push(m);
+            states.push((j, m));
         }
     }
     if let Some(m) = model_at(twin, pose) {
-        states.push(m);
+        states.push((twin.history.len().max(1), m));
     }
     if states.len() < 2 {
         return;
     }
+    let x: Vec<f64> = states.iter().map(|(j, _)| *j as f64).collect();
+    let states: Vec<ModalModel> = states.into_iter().map(|(_, m)| m).collect();
     let n_modes = states.iter().map(|m| m.modes.len()).min().unwrap_or(0);
-    let x: Vec<f64> = (0..states.len()).map(|i| i as f64).collect();
     let ys: Vec<Vec<f64>> = (0..n_modes)
         .map(|k| {
             states
@@ -396,13 +445,33 @@ fn history_section(b: &mut String, twin: &Twin, pose: [f64; 3]) {
             points: false,
         })
         .collect();
-    b.push_str(&plot(
-        "natural frequencies at the operating pose over the twin's life",
-        "state (0 = identified, then after each refit)",
-        "change from the identified twin [%]",
-        &series,
-        Scale::Lin,
-    ));
+    // lines with a dot per entry; the legend under the plot (inside, it would hide the
+    // lines' ends)
+    let legend: Vec<(&str, usize)> = series.iter().map(|s| (s.label, s.color)).collect();
+    let all: Vec<Series> = series
+        .iter()
+        .flat_map(|s| {
+            [false, true].map(|points| Series {
+                label: "",
+                points,
+                ..*s
+            })
+        })
+        .collect();
+    b.push_str(&figure(&Figure {
+        title: "natural frequencies at the operating pose over the twin's life",
+        xlabel: "after history entry (1 = identified, then each refit)",
+        xscale: Scale::Index,
+        xrange: Some((x[0] - 0.2, x[x.len() - 1] + 0.2)),
+        width: 760,
+        panels: &[Panel::new(
+            "change from the identified twin [%]",
+            Scale::Lin,
+            &all,
+            300,
+        )],
+    }));
+    b.push_str(&legend_html(&legend));
 }
 
 #[cfg(test)]

@@ -2,8 +2,8 @@
 
 use super::{read_series, Output};
 use anyhow::Result;
-use identify::interpolate::{simulate_twin, TwinEvaluator};
-use identify::simulate::{force_rows, Hold};
+use identify::interpolate::TwinEvaluator;
+use identify::simulate::Hold;
 use identify::twin::Twin;
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -31,30 +31,18 @@ pub struct Args {
 pub fn run(a: Args, out: &Output) -> Result<()> {
     super::check_output_not_input(&a.out, &[a.twin.clone(), a.data.clone()])?;
     let twin = Twin::load(&a.twin)?;
-    let mut ev = TwinEvaluator::new(&twin)?;
     let ts = read_series(std::slice::from_ref(&a.data), out)?.remove(0);
-    identify::extended::check_force_columns(ev.channels(), &ts)?;
     let hold = match a.hold.as_str() {
         "foh" => Hold::Foh,
         "band" => Hold::BandLimited,
         _ => Hold::Zoh,
     };
-    let forces = force_rows(&ts);
-    let y = if twin.extensions.is_empty() {
-        simulate_twin(&mut ev, &forces, |i| ts.position_at(i), ts.dt, hold)
-    } else {
+    if !twin.extensions.is_empty() {
         // the extended twin of `mtwin diagnose`: delay, external vibration, cubic stiffness
         out.say("simulating with the twin's extensions (from mtwin diagnose)");
-        identify::extended::simulate_extended(
-            &twin,
-            &forces,
-            |i| ts.position_at(i),
-            ts.t0,
-            ts.dt,
-            hold,
-        )?
-    };
-    let mut axes: Vec<identify::axis::Axis> = ev.channels().iter().map(|c| c.output).collect();
+    }
+    let y = twin.simulate(&ts, hold)?;
+    let mut axes: Vec<identify::axis::Axis> = twin.channels.iter().map(|c| c.output).collect();
     axes.sort();
     axes.dedup();
     let mut text = String::with_capacity(y.len() * 64);
@@ -76,6 +64,7 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
         text.push('\n');
     }
     identify::atomic::write_atomic(&a.out, text.as_bytes())?;
+    let ev = TwinEvaluator::new(&twin)?;
     let outside = (0..ts.len())
         .filter(|&i| !ev.is_inside(ts.position_at(i)))
         .count();

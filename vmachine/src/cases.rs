@@ -1,8 +1,8 @@
 //! Fixed benchmark cases shared by the identification bench and the peer comparison.
 
-use identify::axis::{Axis, Channel};
-use identify::frf::Frf;
-use identify::model::{ChannelModel, ModalModel, Mode, ModeNum};
+use mtwin_core::axis::{Axis, Channel};
+use mtwin_core::frf::Frf;
+use mtwin_core::model::{ChannelModel, ModalModel, Mode, ModeNum};
 use num_complex::Complex64;
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};

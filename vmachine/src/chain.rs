@@ -1,7 +1,7 @@
 //! Physical mass–spring–damper chains (the paper's 3-DoF example) with exact simulation.
 
-use identify::axis::{Axis, Channel};
-use identify::frf::{Frf, FrfChannel};
+use mtwin_core::axis::{Axis, Channel};
+use mtwin_core::frf::{Frf, FrfChannel};
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
 use std::f64::consts::PI;
@@ -114,8 +114,8 @@ impl MdofChain {
 
     /// The exact modal model (channel `zz`) when the damping is proportional to the
     /// stiffness (`C = β K`, as in [`MdofChain::paper_chain`]); `None` otherwise.
-    pub fn modal_model(&self) -> Option<identify::model::ModalModel> {
-        use identify::model::{ChannelModel, ModalModel, Mode, ModeNum};
+    pub fn modal_model(&self) -> Option<mtwin_core::model::ModalModel> {
+        use mtwin_core::model::{ChannelModel, ModalModel, Mode, ModeNum};
         let beta = self.c[0] / self.k[0];
         if self
             .c

@@ -4,10 +4,10 @@
 use crate::chain::MdofChain;
 use crate::excitation::{hit_series, impacts, noise, Milling};
 use crate::structure::ModalMachine;
-use identify::axis::Axis;
-use identify::model::ModalModel;
-use identify::simulate::{Hold, Simulator};
-use identify::timeseries::{ResponseKind, TimeSeries};
+use mtwin_core::axis::Axis;
+use mtwin_core::model::ModalModel;
+use mtwin_core::simulate::{Hold, Simulator};
+use mtwin_core::timeseries::{ResponseKind, TimeSeries};
 use rand::rngs::StdRng;
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};

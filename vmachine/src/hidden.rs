@@ -2,7 +2,7 @@
 //! diagnose` must find. [`case`]: impact tests; [`milling_case`]: milling records (its
 //! own table). Impact tests (hammer along x and y, 5 hits, responses x and y) on
 //! [`ModalMachine::default_machine`] at the workspace centre, against a twin identified
-//! from clean tests there ([`base_twin`]).
+//! from clean tests there ([`base_tests`], [`BaseTwins`]).
 //!
 //! | effect | hidden in the data | truth reported |
 //! |---|---|---|
@@ -18,11 +18,9 @@
 use crate::daq::{acquire, impact_record, milling_forces, simulate_machine, Daq};
 use crate::excitation::Milling;
 use crate::structure::{ModalMachine, VMode};
-use identify::axis::Axis;
-use identify::campaign::{identify_campaign, CampaignOptions};
-use identify::rational_fit::FitOptions;
-use identify::timeseries::{ResponseKind, TimeSeries};
-use identify::twin::Twin;
+use mtwin_core::axis::Axis;
+use mtwin_core::timeseries::{ResponseKind, TimeSeries};
+use mtwin_core::twin::Twin;
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 
@@ -108,19 +106,26 @@ pub fn tests_at(
         .collect()
 }
 
-/// The twin identified from clean tests at [`POSE`] (30–2500 Hz, automatic order),
-/// with channels `axes` × `axes`.
-pub fn base_twin(m: &ModalMachine, axes: &[Axis]) -> Twin {
-    let opts = CampaignOptions {
-        fit: FitOptions {
-            band_hz: Some((30.0, 2500.0)),
-            ..FitOptions::default()
-        },
-        ..CampaignOptions::default()
-    };
-    identify_campaign(&tests_at(m, POSE, axes, axes, 1), &opts, &|_, _| {})
-        .expect("identification of the base twin")
-        .twin
+/// Band of the base twins' identification (the caller identifies them from
+/// [`base_tests`] in this band, automatic order).
+pub const BASE_BAND_HZ: (f64, f64) = (30.0, 2500.0);
+
+/// Clean impact tests at [`POSE`], hammer and responses along `axes`: the data of a base
+/// twin.
+pub fn base_tests(m: &ModalMachine, axes: &[Axis]) -> Vec<TimeSeries> {
+    tests_at(m, POSE, axes, axes, 1)
+}
+
+/// The twins [`case`] diagnoses against, each identified by the caller from
+/// [`base_tests`] of the default machine in [`BASE_BAND_HZ`]: the generator makes data
+/// and truth only; it judges the identification and does not call it.
+#[derive(Debug, Clone)]
+pub struct BaseTwins {
+    /// From tests with hammer and responses along x and y ([`AXES`]).
+    pub xy: Twin,
+    /// From tests with hammer and response along x only (the cross-coupling case: a
+    /// twin without the cross channels).
+    pub x: Twin,
 }
 
 /// Responses delayed by `k` samples (the first `k` samples repeat the first value).
@@ -161,20 +166,23 @@ fn pose_dependence_truth(
     (axis, span)
 }
 
-/// One case of `effect` with parameters from `seed`. `base` is [`base_twin`] of the
-/// default machine with channels x, y (passed in so many cases share one identification).
-pub fn case(effect: Effect, seed: u64, base: &Twin) -> Case {
+/// One case of `effect` with parameters from `seed`, against the twins `base` (passed in
+/// so many cases share one identification).
+pub fn case(effect: Effect, seed: u64, base: &BaseTwins) -> Case {
     let machine = ModalMachine::default_machine();
     let mut rng = StdRng::seed_from_u64(seed);
     let mut truth = serde_json::Map::new();
     let fresh = 1000 + 10 * seed;
     let (twin, records) = match effect {
-        Effect::None => (base.clone(), tests_at(&machine, POSE, &AXES, &AXES, fresh)),
+        Effect::None => (
+            base.xy.clone(),
+            tests_at(&machine, POSE, &AXES, &AXES, fresh),
+        ),
         Effect::ModeChange => {
             let factor = rng.gen_range(0.8..0.9);
             let worn = machine.clone().with_stiffness_change(4, factor);
             truth.insert("new_freq_hz".into(), worn.mode_at(4, POSE).freq_hz().into());
-            (base.clone(), tests_at(&worn, POSE, &AXES, &AXES, fresh))
+            (base.xy.clone(), tests_at(&worn, POSE, &AXES, &AXES, fresh))
         }
         Effect::UnmodeledMode => {
             let f = rng.gen_range(400.0..480.0);
@@ -188,7 +196,7 @@ pub fn case(effect: Effect, seed: u64, base: &Twin) -> Case {
                 quad: [0.0; 3],
             });
             truth.insert("freq_hz".into(), f.into());
-            (base.clone(), tests_at(&extra, POSE, &AXES, &AXES, fresh))
+            (base.xy.clone(), tests_at(&extra, POSE, &AXES, &AXES, fresh))
         }
         Effect::TimeDelay => {
             let k = rng.gen_range(2..=5usize);
@@ -197,7 +205,7 @@ pub fn case(effect: Effect, seed: u64, base: &Twin) -> Case {
                 .into_iter()
                 .map(|t| delayed(t, k))
                 .collect();
-            (base.clone(), recs)
+            (base.xy.clone(), recs)
         }
         Effect::Disturbance => {
             let f = rng.gen_range(600.0..700.0);
@@ -206,12 +214,14 @@ pub fn case(effect: Effect, seed: u64, base: &Twin) -> Case {
                 .into_iter()
                 .map(|t| disturbed(t, Axis::X, f, 0.3))
                 .collect();
-            (base.clone(), recs)
+            (base.xy.clone(), recs)
         }
         Effect::CrossCoupling => {
             truth.insert("channel".into(), "yx".into());
-            let tw = base_twin(&machine, &[Axis::X]);
-            (tw, tests_at(&machine, POSE, &[Axis::X], &AXES, fresh))
+            (
+                base.x.clone(),
+                tests_at(&machine, POSE, &[Axis::X], &AXES, fresh),
+            )
         }
         Effect::PoseDependence => {
             let (axis, span) = pose_dependence_truth(&machine, &mut rng, &mut truth);
@@ -221,7 +231,7 @@ pub fn case(effect: Effect, seed: u64, base: &Twin) -> Case {
                 p[axis] += d;
                 recs.extend(tests_at(&machine, p, &AXES, &AXES, fresh + 2 * i as u64));
             }
-            (base.clone(), recs)
+            (base.xy.clone(), recs)
         }
         Effect::Nonlinearity => {
             let sign = if rng.gen_bool(0.5) { 1.0 } else { -1.0 };
@@ -241,7 +251,7 @@ pub fn case(effect: Effect, seed: u64, base: &Twin) -> Case {
                 &AXES,
                 fresh + 5,
             ));
-            (base.clone(), recs)
+            (base.xy.clone(), recs)
         }
     };
     Case {
@@ -381,8 +391,8 @@ fn off_harmonics(f: f64, rpms: &[f64], gap: f64) -> bool {
 
 /// One case of `effect` in milling data, with its parameters from `seed`: 3 spindle
 /// speeds drawn from 2000–5000 rpm (3 teeth, 2 mm depth of cut, [`MILL_SECONDS`] each)
-/// at [`POSE`], against `base` ([`base_twin`] of the default machine, channels x, y,
-/// identified from impact tests).
+/// at [`POSE`], against `base` (the twin [`BaseTwins::xy`] of the default machine, identified
+/// from impact tests).
 ///
 /// | effect | hidden in the data | truth reported |
 /// |---|---|---|
@@ -523,7 +533,7 @@ fn dominant(shape: [f64; 3]) -> &'static str {
 /// The twin without its cross channels (only `xx`, `yy`, `zz` left).
 pub fn without_cross_channels(twin: &Twin) -> Twin {
     let mut t = twin.clone();
-    let direct = |c: &identify::axis::Channel| c.output == c.input;
+    let direct = |c: &mtwin_core::axis::Channel| c.output == c.input;
     t.channels.retain(direct);
     for p in &mut t.poses {
         p.model.channels.retain(|c| direct(&c.channel));

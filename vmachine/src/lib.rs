@@ -5,7 +5,7 @@
 //!
 //! * [`structure::ModalMachine`] — modes whose natural frequencies depend on the axis
 //!   positions, with mode shapes at the TCP (direct and cross channels), the exact
-//!   [`identify::model::ModalModel`] and analytic FRF at any pose;
+//!   [`mtwin_core::model::ModalModel`] and analytic FRF at any pose;
 //! * [`chain::MdofChain`] — a physical mass–spring–damper chain (the paper's 3-DoF
 //!   example), analytic FRF `(K − ω²M + iωC)⁻¹`, exact state-space simulation;
 //! * [`excitation`] — impact hammer hits, chirps, random noise, mechanistic milling forces;
@@ -13,12 +13,12 @@
 //!   outside vibration, missing cross channel, pose dependence, cubic stiffness) drawn
 //!   from a seed, for `diagnose`;
 //! * [`daq`] — simulation at a high rate, one linear-phase anti-alias FIR applied to
-//!   every channel, decimation, sensor noise: a [`identify::timeseries::TimeSeries`] like
+//!   every channel, decimation, sensor noise: a [`mtwin_core::timeseries::TimeSeries`] like
 //!   a real data-acquisition system records.
 //!
 //! ```
 //! use vmachine::structure::ModalMachine;
-//! use identify::axis::Axis;
+//! use mtwin_core::axis::Axis;
 //! let m = ModalMachine::default_machine();
 //! let pose = m.center();
 //! let frf = m.frf_at(pose, &[100.0, 200.0], &[Axis::X, Axis::Y]);

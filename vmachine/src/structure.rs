@@ -1,8 +1,8 @@
 //! A machine tool's TCP dynamics as pose-dependent modes.
 
-use identify::axis::{Axis, Channel};
-use identify::frf::Frf;
-use identify::model::{ChannelModel, ModalModel, Mode, ModeNum};
+use mtwin_core::axis::{Axis, Channel};
+use mtwin_core::frf::Frf;
+use mtwin_core::model::{ChannelModel, ModalModel, Mode, ModeNum};
 
 /// One structural mode.
 #[derive(Debug, Clone, PartialEq)]
@@ -191,8 +191,8 @@ impl ModalMachine {
     /// A twin made of the machine's exact models at the poses of [`ModalMachine::grid`]
     /// `n` (channels over `axes`): the ideal identification, for testing interpolation,
     /// simulation and the FMU against the machine itself.
-    pub fn exact_twin(&self, n: [usize; 3], axes: &[Axis]) -> identify::twin::Twin {
-        use identify::twin::{OrderInfo, PoseModel, Twin};
+    pub fn exact_twin(&self, n: [usize; 3], axes: &[Axis]) -> mtwin_core::twin::Twin {
+        use mtwin_core::twin::{OrderInfo, PoseModel, Twin};
         let poses = self
             .grid(n)
             .into_iter()

@@ -12,8 +12,8 @@
 //! ([`super::pf_gram`]); the design (Gram, then QR) is the fallback.
 
 use super::data::Prepared;
-use super::linalg::{lstsq, ScaledGram, Tall};
 use super::pf_gram::{self, PfGram};
+use crate::linalg::{lstsq, ScaledGram, Tall};
 use crate::model::Mode;
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;

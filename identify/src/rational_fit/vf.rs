@@ -15,7 +15,7 @@
 //! its Householder QR.
 
 use super::data::Prepared;
-use super::linalg::{lstsq, trailing_r, trailing_r_of_gram, Tall};
+use crate::linalg::{lstsq, trailing_r, trailing_r_of_gram, Tall};
 use crate::model::Mode;
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;

@@ -56,7 +56,7 @@ fn d2_kernel(k: usize) -> Vec<f64> {
 /// the sample rate, 37 % at 0.37 fs, a misfit in every accelerometer comparison that the
 /// twin did not make); near the ends the widest symmetric kernel that fits, the end
 /// samples copied.
-pub(crate) fn second_derivative(x: &[f64], dt: f64) -> Vec<f64> {
+pub fn second_derivative(x: &[f64], dt: f64) -> Vec<f64> {
     let n = x.len();
     let mut a = vec![0.0; n];
     if n < 3 {

@@ -234,49 +234,6 @@ impl ModalModel {
             }
         }
     }
-
-    /// Discrete-time transfer function `H(z⁻¹) = B(z⁻¹)/A(z⁻¹)` of channel `ci` at sample
-    /// time `ts`, the form of the paper's equation (1), for inspection.
-    ///
-    /// Each mode is discretised exactly with a zero-order hold on the input (MATLAB
-    /// `c2d(..., 'zoh')`), then the sections are summed. Returns `(b, a)` with `a[0] = 1`,
-    /// `b[k]` the coefficient of `z⁻ᵏ`. Never store these: high-order polynomials lose
-    /// their poles when rounded.
-    pub fn discrete_tf(&self, ci: usize, ts: f64) -> (Vec<f64>, Vec<f64>) {
-        let ch = &self.channels[ci];
-        let mut num = vec![ch.d];
-        let mut den = vec![1.0];
-        for (m, n) in self.modes.iter().zip(&ch.num) {
-            let (bk, ak) = crate::simulate::section_zoh_tf(m, n, ts);
-            // num/den + bk/ak = (num*ak + bk*den) / (den*ak)
-            let left = poly_mul(&num, &ak);
-            let right = poly_mul(&bk, &den);
-            num = poly_add(&left, &right);
-            den = poly_mul(&den, &ak);
-        }
-        (num, den)
-    }
-}
-
-fn poly_mul(a: &[f64], b: &[f64]) -> Vec<f64> {
-    let mut out = vec![0.0; a.len() + b.len() - 1];
-    for (i, x) in a.iter().enumerate() {
-        for (j, y) in b.iter().enumerate() {
-            out[i + j] += x * y;
-        }
-    }
-    out
-}
-
-fn poly_add(a: &[f64], b: &[f64]) -> Vec<f64> {
-    let mut out = vec![0.0; a.len().max(b.len())];
-    for (i, x) in a.iter().enumerate() {
-        out[i] += x;
-    }
-    for (i, x) in b.iter().enumerate() {
-        out[i] += x;
-    }
-    out
 }
 
 #[cfg(test)]

@@ -65,7 +65,7 @@ impl Frf {
 /// Weighted RMS `sqrt(Σ w²|h|² / Σ w²)` of one channel, formed relative to the largest
 /// weighted value so that receptances near 1e±300 neither overflow nor underflow when
 /// squared. `None` when the channel is zero or has no weight.
-pub(crate) fn weighted_rms(h: &[Complex64], w: &[f64]) -> Option<f64> {
+pub fn weighted_rms(h: &[Complex64], w: &[f64]) -> Option<f64> {
     let top = h
         .iter()
         .zip(w)

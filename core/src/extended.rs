@@ -65,24 +65,33 @@ pub fn simulate_extended(
     Ok(y)
 }
 
-/// The twin's simulation (with its extensions) of a measured record as its sensor saw it:
-/// the record's forces, poses and absolute time, the band-limited hold of a measured
-/// record ([`Hold::BandLimited`]); per axis x, y, z the displacement or, for an
-/// accelerometer record, its second derivative (a band-limited FIR). What refit and
-/// diagnose compare with the measured response.
+impl Twin {
+    /// The simulation of this twin for a record, the one every command, the Python
+    /// package, refit and diagnose run: the record's forces (refused when it has no force
+    /// column the twin responds to), its axis positions sample by sample (the model
+    /// interpolated at each), its absolute time (for disturbances), the twin's extensions
+    /// ([`simulate_extended`]) and the hold `hold` between samples. Displacement per axis
+    /// x, y, z at every sample.
+    pub fn simulate(
+        &self,
+        ts: &crate::timeseries::TimeSeries,
+        hold: Hold,
+    ) -> crate::Result<Vec<[f64; 3]>> {
+        check_force_columns(&self.channels, ts)?;
+        let f = crate::simulate::force_rows(ts);
+        simulate_extended(self, &f, |i| ts.position_at(i), ts.t0, ts.dt, hold)
+    }
+}
+
+/// The twin's simulation ([`Twin::simulate`]) of a measured record as its sensor saw it:
+/// the band-limited hold of a measured record ([`Hold::BandLimited`]); per axis x, y, z
+/// the displacement or, for an accelerometer record, its second derivative (a
+/// band-limited FIR). What refit and diagnose compare with the measured response.
 pub fn simulate_as_measured(
     twin: &Twin,
     ts: &crate::timeseries::TimeSeries,
 ) -> crate::Result<[Vec<f64>; 3]> {
-    let f = crate::simulate::force_rows(ts);
-    let y = simulate_extended(
-        twin,
-        &f,
-        |i| ts.position_at(i),
-        ts.t0,
-        ts.dt,
-        Hold::BandLimited,
-    )?;
+    let y = twin.simulate(ts, Hold::BandLimited)?;
     let accel = ts.response_kind == Some(crate::timeseries::ResponseKind::Acceleration);
     Ok(std::array::from_fn(|a| {
         let d: Vec<f64> = y.iter().map(|r| r[a]).collect();

@@ -136,7 +136,7 @@ pub fn upsample(x: &[[f64; 3]], factor: usize) -> Vec<[f64; 3]> {
 /// fine_dt, coarse_index_of_fine_sample, every)` simulates the upsampled record step by
 /// step (a [`Simulator`] with [`Hold::BandLimited`] steps as [`Hold::Foh`]) and returns
 /// its response at every `every`-th fine sample: the original samples.
-pub(crate) fn run_band_limited(
+pub fn run_band_limited(
     forces: &[[f64; 3]],
     dt: f64,
     run: impl FnOnce(&[[f64; 3]], f64, &dyn Fn(usize) -> usize, usize) -> Vec<[f64; 3]>,
@@ -268,6 +268,51 @@ pub fn section_zoh_tf(mode: &Mode, num: &ModeNum, ts: f64) -> (Vec<f64>, Vec<f64
     let tr = p[0][0] + p[1][1];
     let det = p[0][0] * p[1][1] - p[0][1] * p[1][0];
     (vec![0.0, n1, n2], vec![1.0, -tr, det])
+}
+
+impl ModalModel {
+    /// Discrete-time transfer function `H(z⁻¹) = B(z⁻¹)/A(z⁻¹)` of channel `ci` at sample
+    /// time `ts`, the form of the paper's equation (1), for inspection.
+    ///
+    /// Each mode is discretised exactly with a zero-order hold on the input (MATLAB
+    /// `c2d(..., 'zoh')`), then the sections are summed. Returns `(b, a)` with `a[0] = 1`,
+    /// `b[k]` the coefficient of `z⁻ᵏ`. Never store these: high-order polynomials lose
+    /// their poles when rounded.
+    pub fn discrete_tf(&self, ci: usize, ts: f64) -> (Vec<f64>, Vec<f64>) {
+        let ch = &self.channels[ci];
+        let mut num = vec![ch.d];
+        let mut den = vec![1.0];
+        for (m, n) in self.modes.iter().zip(&ch.num) {
+            let (bk, ak) = section_zoh_tf(m, n, ts);
+            // num/den + bk/ak = (num*ak + bk*den) / (den*ak)
+            let left = poly_mul(&num, &ak);
+            let right = poly_mul(&bk, &den);
+            num = poly_add(&left, &right);
+            den = poly_mul(&den, &ak);
+        }
+        (num, den)
+    }
+}
+
+fn poly_mul(a: &[f64], b: &[f64]) -> Vec<f64> {
+    let mut out = vec![0.0; a.len() + b.len() - 1];
+    for (i, x) in a.iter().enumerate() {
+        for (j, y) in b.iter().enumerate() {
+            out[i + j] += x * y;
+        }
+    }
+    out
+}
+
+fn poly_add(a: &[f64], b: &[f64]) -> Vec<f64> {
+    let mut out = vec![0.0; a.len().max(b.len())];
+    for (i, x) in a.iter().enumerate() {
+        out[i] += x;
+    }
+    for (i, x) in b.iter().enumerate() {
+        out[i] += x;
+    }
+    out
 }
 
 /// State of a running simulation of a [`ModalModel`] (or of a pose-dependent sequence of

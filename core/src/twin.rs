@@ -366,6 +366,8 @@ impl Twin {
             return Err(bad("the twin has no poses".into()));
         }
         for (i, p) in self.poses.iter().enumerate() {
+            // poses count from 1 as in the reports; the file's array index beside it
+            let i = format!("{} (`poses[{i}]`)", i + 1);
             if !p.pose.iter().all(|v| v.is_finite()) {
                 return Err(bad(format!("pose {i}: position is not finite")));
             }
