@@ -129,13 +129,22 @@ fn simulate_cubic(
     cubic: &[crate::twin::CubicStiffness],
 ) -> Vec<[f64; 3]> {
     if hold == Hold::BandLimited {
-        return crate::simulate::run_band_limited(forces, dt, |f, h, coarse| {
-            simulate_cubic_dyn(ev, f, &|m| pose_at(coarse(m)), h, Hold::BandLimited, cubic)
+        return crate::simulate::run_band_limited(forces, dt, |f, h, coarse, every| {
+            simulate_cubic_dyn(
+                ev,
+                f,
+                &|m| pose_at(coarse(m)),
+                h,
+                Hold::BandLimited,
+                cubic,
+                every,
+            )
         });
     }
-    simulate_cubic_dyn(ev, forces, pose_at, dt, hold, cubic)
+    simulate_cubic_dyn(ev, forces, pose_at, dt, hold, cubic, 1)
 }
 
+/// The response at samples `0, every, 2·every, …` of a simulation over all `forces`.
 fn simulate_cubic_dyn(
     ev: &mut TwinEvaluator,
     forces: &[[f64; 3]],
@@ -143,6 +152,7 @@ fn simulate_cubic_dyn(
     dt: f64,
     hold: Hold,
     cubic: &[crate::twin::CubicStiffness],
+    every: usize,
 ) -> Vec<[f64; 3]> {
     let nm = ev.n_modes();
     let kappa: Vec<f64> = (0..nm)
@@ -150,15 +160,16 @@ fn simulate_cubic_dyn(
         .collect();
     let mut sim = Simulator::new(nm, hold);
     sim.set_cubic(&kappa);
-    let mut out = Vec::with_capacity(forces.len());
+    let mut out = Vec::with_capacity(forces.len().div_ceil(every));
     if forces.is_empty() {
         return out;
     }
     out.push(sim.output(ev.model_at(pose_at(0)), &forces[0]));
     for i in 1..forces.len() {
-        let m = ev.model_at(pose_at(i - 1)).clone();
-        sim.step(&m, &forces[i - 1], &forces[i], dt);
-        out.push(sim.output(ev.model_at(pose_at(i)), &forces[i]));
+        sim.step(ev.model_at(pose_at(i - 1)), &forces[i - 1], &forces[i], dt);
+        if i % every == 0 {
+            out.push(sim.output(ev.model_at(pose_at(i)), &forces[i]));
+        }
     }
     out
 }

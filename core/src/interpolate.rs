@@ -46,27 +46,30 @@ pub fn simulate_twin(
     hold: crate::simulate::Hold,
 ) -> Vec<[f64; 3]> {
     if hold == crate::simulate::Hold::BandLimited {
-        return crate::simulate::run_band_limited(forces, dt, |f, h, coarse| {
+        return crate::simulate::run_band_limited(forces, dt, |f, h, coarse, every| {
             simulate_twin_dyn(
                 ev,
                 f,
                 &|m| pose_at(coarse(m)),
                 h,
                 crate::simulate::Hold::BandLimited,
+                every,
             )
         });
     }
-    simulate_twin_dyn(ev, forces, &pose_at, dt, hold)
+    simulate_twin_dyn(ev, forces, &pose_at, dt, hold, 1)
 }
 
+/// The response at samples `0, every, 2·every, …` of a simulation over all `forces`.
 fn simulate_twin_dyn(
     ev: &mut TwinEvaluator,
     forces: &[[f64; 3]],
     pose_at: &dyn Fn(usize) -> [f64; 3],
     dt: f64,
     hold: crate::simulate::Hold,
+    every: usize,
 ) -> Vec<[f64; 3]> {
-    let mut out = Vec::with_capacity(forces.len());
+    let mut out = Vec::with_capacity(forces.len().div_ceil(every));
     if forces.is_empty() {
         return out;
     }
@@ -74,7 +77,9 @@ fn simulate_twin_dyn(
     out.push(sim.output(ev.model_at(pose_at(0)), &forces[0]));
     for i in 1..forces.len() {
         sim.step(ev.model_at(pose_at(i - 1)), &forces[i - 1], &forces[i], dt);
-        out.push(sim.output(ev.model_at(pose_at(i)), &forces[i]));
+        if i % every == 0 {
+            out.push(sim.output(ev.model_at(pose_at(i)), &forces[i]));
+        }
     }
     out
 }

@@ -348,12 +348,7 @@ impl RecordInfo {
         }
         let mut info = Self::from_stats(&r.source, rms, r.response_axes(), |a| {
             let f = r.force(a).unwrap_or(&[]);
-            let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-            for &v in f {
-                lo = if v < lo { v } else { lo };
-                hi = if v > hi { v } else { hi };
-            }
-            impulsive(&subsample(f), (lo, hi))
+            impulsive(&subsample(f), min_max(f))
         });
         if let Ok(i) = &mut info {
             i.sweep = !i.impulsive && r.force(i.strongest).is_some_and(is_sweep);
@@ -393,9 +388,44 @@ impl RecordInfo {
     }
 }
 
-/// `Σ g(v_i)` in interleaved partial sums ([`crate::lanes`]).
+/// `Σ g(v_i)` in interleaved partial sums, added as [`crate::lanes::sum`] adds them.
 fn sum4(v: &[f64], g: impl Fn(f64) -> f64) -> f64 {
-    crate::lanes::sum(v.len(), |k| [g(v[k])])[0]
+    const L: usize = crate::lanes::LANES;
+    let mut acc = [0.0f64; L];
+    let chunks = v.chunks_exact(L);
+    let rest = chunks.remainder();
+    for c in chunks {
+        for l in 0..L {
+            acc[l] += g(c[l]);
+        }
+    }
+    for &x in rest {
+        acc[0] += g(x);
+    }
+    (acc[0] + acc[1]) + (acc[2] + acc[3])
+}
+
+/// The smallest and largest of `v` (±∞ when empty), in [`crate::lanes::LANES`] interleaved
+/// running extremes.
+fn min_max(v: &[f64]) -> (f64, f64) {
+    const L: usize = crate::lanes::LANES;
+    let (mut lo, mut hi) = ([f64::INFINITY; L], [f64::NEG_INFINITY; L]);
+    let chunks = v.chunks_exact(L);
+    let rest = chunks.remainder();
+    for c in chunks {
+        for l in 0..L {
+            lo[l] = if c[l] < lo[l] { c[l] } else { lo[l] };
+            hi[l] = if c[l] > hi[l] { c[l] } else { hi[l] };
+        }
+    }
+    for &x in rest {
+        lo[0] = if x < lo[0] { x } else { lo[0] };
+        hi[0] = if x > hi[0] { x } else { hi[0] };
+    }
+    (
+        lo.into_iter().fold(f64::INFINITY, f64::min),
+        hi.into_iter().fold(f64::NEG_INFINITY, f64::max),
+    )
 }
 
 /// The systematic subsample a streamed read keeps of a column
@@ -435,39 +465,56 @@ fn is_sweep(f: &[f64]) -> bool {
         return false;
     }
     let n = n & !1;
-    let mut planner = RealFftPlanner::<f64>::new();
-    let r2c = planner.plan_fft_forward(n);
-    let mut out = r2c.make_output_vec();
-    let mut parts: Vec<(f64, usize)> = Vec::with_capacity(SWEEP_SEGMENTS);
-    for s in 0..SWEEP_SEGMENTS {
-        let seg = &f[s * n..(s + 1) * n];
-        let mean = seg.iter().sum::<f64>() / n as f64;
-        let mut buf: Vec<f64> = seg.iter().map(|v| v - mean).collect();
-        let rms = (buf.iter().map(|v| v * v).sum::<f64>() / n as f64).sqrt();
-        if r2c.process(&mut buf, &mut out).is_err() {
+    let parts: Vec<&[f64]> = f.chunks_exact(n).take(SWEEP_SEGMENTS).collect();
+    let means: Vec<f64> = parts.iter().map(|p| sum4(p, |v| v) / n as f64).collect();
+    let rms: Vec<f64> = parts
+        .iter()
+        .zip(&means)
+        .map(|(p, &m)| (sum4(p, |v| (v - m) * (v - m)) / n as f64).sqrt())
+        .collect();
+    let top = rms.iter().copied().fold(0.0, f64::max);
+    let carrying: Vec<usize> = (0..parts.len()).filter(|&s| rms[s] >= 0.1 * top).collect();
+    if carrying.len() < 6 {
+        return false;
+    }
+    // the dominant line of each part carrying force, in order; random force fails the
+    // monotony after a few parts, so the transforms stop there
+    let r2c = plan(n);
+    let (mut buf, mut out, mut scratch) = (
+        r2c.make_input_vec(),
+        r2c.make_output_vec(),
+        r2c.make_scratch_vec(),
+    );
+    let (mut up, mut down) = (true, true);
+    let (mut lo, mut hi, mut last) = (usize::MAX, 0, None);
+    for s in carrying {
+        let m = means[s];
+        for (b, &v) in buf.iter_mut().zip(parts[s]) {
+            *b = v - m;
+        }
+        if r2c
+            .process_with_scratch(&mut buf, &mut out, &mut scratch)
+            .is_err()
+        {
             return false;
         }
         let k = (1..out.len())
             .max_by(|&a, &b| out[a].norm_sqr().total_cmp(&out[b].norm_sqr()))
             .unwrap_or(0);
-        parts.push((rms, k));
+        if k == 0 {
+            return false;
+        }
+        if let Some(prev) = last {
+            up &= k >= prev;
+            down &= k <= prev;
+            if !(up || down) {
+                return false;
+            }
+        }
+        last = Some(k);
+        (lo, hi) = (lo.min(k), hi.max(k));
     }
-    let top = parts.iter().map(|p| p.0).fold(0.0, f64::max);
-    let lines: Vec<usize> = parts
-        .iter()
-        .filter(|p| p.0 >= 0.1 * top)
-        .map(|p| p.1)
-        .collect();
-    if lines.len() < 6 || lines.contains(&0) {
-        return false;
-    }
-    let up = lines.windows(2).all(|w| w[1] >= w[0]);
-    let down = lines.windows(2).all(|w| w[1] <= w[0]);
-    let (lo, hi) = (
-        *lines.iter().min().unwrap_or(&1),
-        *lines.iter().max().unwrap_or(&1),
-    );
-    (up || down) && hi >= 4 * lo
+    hi >= 4 * lo
 }
 
 fn median(v: &[f64]) -> f64 {
@@ -656,27 +703,43 @@ impl Accumulator {
 
     /// Adds one average per segment of `batch`. Each line's sums run over the segments
     /// in order, so a batch adds exactly what its segments added one by one would; the
-    /// lines are split into chunks summed in parallel (rayon).
+    /// lines are split into chunks summed in parallel (rayon), and each chunk of every
+    /// spectrum is added to all the sums it enters while it is in the core's cache.
     fn add(&mut self, batch: &[Spectra]) {
         let (ni, no, nl) = (self.inputs.len(), self.outputs.len(), self.nl);
-        accumulate(&mut self.gff, nl, batch, |g, s, a, k| {
-            let (fi, fj) = (&s.fs[a / ni][k.clone()], &s.fs[a % ni][k]);
-            for ((g, x), y) in g.iter_mut().zip(fi).zip(fj) {
-                *g += x.conj() * y;
-            }
-        });
-        accumulate(&mut self.gfy, nl, batch, |g, s, a, k| {
-            let (fi, yo) = (&s.fs[a / no][k.clone()], &s.ys[a % no][k]);
-            for ((g, x), y) in g.iter_mut().zip(fi).zip(yo) {
-                *g += x.conj() * y;
-            }
-        });
-        accumulate(&mut self.gyy, nl, batch, |g, s, o, k| {
-            for (g, y) in g.iter_mut().zip(&s.ys[o][k]) {
-                *g += y.norm_sqr();
-            }
-        });
         self.averages += batch.len();
+        if nl == 0 {
+            return;
+        }
+        // chunk c of every row of the three sums, for one task per chunk of lines
+        let mut chunks: Vec<LineChunk> = (0..nl.div_ceil(LINE_CHUNK))
+            .map(|_| LineChunk::default())
+            .collect();
+        for row in self.gff.chunks_mut(nl) {
+            for (c, part) in chunks.iter_mut().zip(row.chunks_mut(LINE_CHUNK)) {
+                c.gff.push(part);
+            }
+        }
+        for row in self.gfy.chunks_mut(nl) {
+            for (c, part) in chunks.iter_mut().zip(row.chunks_mut(LINE_CHUNK)) {
+                c.gfy.push(part);
+            }
+        }
+        for row in self.gyy.chunks_mut(nl) {
+            for (c, part) in chunks.iter_mut().zip(row.chunks_mut(LINE_CHUNK)) {
+                c.gyy.push(part);
+            }
+        }
+        chunks
+            .into_par_iter()
+            .enumerate()
+            .for_each(|(c, mut chunk)| {
+                let k0 = 1 + c * LINE_CHUNK;
+                let k = k0..k0 + chunk.gff.first().map_or(0, |g| g.len());
+                for s in batch {
+                    chunk.add(s, ni, no, k.clone());
+                }
+            });
     }
 
     /// Lines `(lo, hi)` (1-based line numbers k, frequency k·df) of the contiguous range
@@ -729,6 +792,32 @@ impl Accumulator {
                 ni
             )));
         }
+        if ni == 1 {
+            // one input: each channel's lines in one pass over its sums
+            let mut singular = 0;
+            let chans = self
+                .outputs
+                .iter()
+                .enumerate()
+                .map(|(o, &out)| {
+                    let (gyy, gfy) = (&self.gyy[o * nl..][..nl], &self.gfy[o * nl..][..nl]);
+                    let mut h = Vec::with_capacity(nl);
+                    let mut coh = Vec::with_capacity(nl);
+                    for ((g, &gyy), &gfy) in self.gff[..nl].iter().zip(gyy).zip(gfy) {
+                        let (hk, ck) = siso_line(est, g.re, gfy, gyy);
+                        singular += usize::from(g.re <= 0.0);
+                        h.push(hk);
+                        coh.push(ck);
+                    }
+                    FrfChannel {
+                        channel: Channel::new(out, self.inputs[0]),
+                        h,
+                        coherence: Some(coh),
+                    }
+                })
+                .collect();
+            return Ok((chans, singular));
+        }
         let mut chans: Vec<FrfChannel> = Vec::with_capacity(ni * no);
         for &o in &self.outputs {
             for &i in &self.inputs {
@@ -748,50 +837,22 @@ impl Accumulator {
                 let gyy = self.gyy[self.at(o, k)];
                 let mut coh = 0.0;
                 h.fill(Complex64::default());
-                if ni == 1 {
-                    let gff = self.gff[k].re;
-                    let gfy = self.gfy[self.at(o, k)];
-                    if gff > 0.0 && gyy > 0.0 {
-                        coh = (gfy.norm_sqr() / (gff * gyy)).clamp(0.0, 1.0);
+                for (ij, aij) in a.iter_mut().enumerate() {
+                    *aij = self.gff[self.at(ij, k)];
+                }
+                for (i, bi) in b.iter_mut().enumerate() {
+                    *bi = self.gfy[self.at(i * no + o, k)];
+                }
+                if solve_in_place(&mut a, &mut b, ni) {
+                    h.copy_from_slice(&b);
+                    let explained: f64 = (0..ni)
+                        .map(|i| (self.gfy[self.at(i * no + o, k)].conj() * h[i]).re)
+                        .sum();
+                    if gyy > 0.0 {
+                        coh = (explained / gyy).clamp(0.0, 1.0);
                     }
-                    h[0] = match est {
-                        _ if gff <= 0.0 => {
-                            singular += 1;
-                            Complex64::default()
-                        }
-                        Estimator::H1 => gfy / gff,
-                        Estimator::H2 if gfy.norm_sqr() > 0.0 => gyy / gfy.conj(),
-                        Estimator::Hv if gfy.norm_sqr() > 0.0 => {
-                            // (Gyy - Gff + S) / (2 Gyf), S = sqrt((Gff-Gyy)² + 4|Gfy|²),
-                            // in the form without cancellation for either sign.
-                            let d = gff - gyy;
-                            let s = (d * d + 4.0 * gfy.norm_sqr()).sqrt();
-                            if d >= 0.0 {
-                                2.0 * gfy / (d + s)
-                            } else {
-                                (s - d) / (2.0 * gfy.conj())
-                            }
-                        }
-                        _ => Complex64::default(),
-                    };
                 } else {
-                    for (ij, aij) in a.iter_mut().enumerate() {
-                        *aij = self.gff[self.at(ij, k)];
-                    }
-                    for (i, bi) in b.iter_mut().enumerate() {
-                        *bi = self.gfy[self.at(i * no + o, k)];
-                    }
-                    if solve_in_place(&mut a, &mut b, ni) {
-                        h.copy_from_slice(&b);
-                        let explained: f64 = (0..ni)
-                            .map(|i| (self.gfy[self.at(i * no + o, k)].conj() * h[i]).re)
-                            .sum();
-                        if gyy > 0.0 {
-                            coh = (explained / gyy).clamp(0.0, 1.0);
-                        }
-                    } else {
-                        singular += 1;
-                    }
+                    singular += 1;
                 }
                 for (i, hi) in h.iter().enumerate() {
                     let c = &mut chans[o * ni + i];
@@ -806,33 +867,67 @@ impl Accumulator {
     }
 }
 
-/// Lines per chunk of [`accumulate`] (a chunk of every spectrum a segment adds stays in
-/// the core's cache while the batch's segments are summed into it).
+/// H and coherence of one line of a single-input channel from its sums `Gff`, `Gfy`,
+/// `Gyy` (H = 0 where `Gff` ≤ 0: a singular line).
+fn siso_line(est: Estimator, gff: f64, gfy: Complex64, gyy: f64) -> (Complex64, f64) {
+    let coh = if gff > 0.0 && gyy > 0.0 {
+        (gfy.norm_sqr() / (gff * gyy)).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let h = match est {
+        _ if gff <= 0.0 => Complex64::default(),
+        Estimator::H1 => gfy / gff,
+        Estimator::H2 if gfy.norm_sqr() > 0.0 => gyy / gfy.conj(),
+        Estimator::Hv if gfy.norm_sqr() > 0.0 => {
+            // (Gyy - Gff + S) / (2 Gyf), S = sqrt((Gff-Gyy)² + 4|Gfy|²),
+            // in the form without cancellation for either sign.
+            let d = gff - gyy;
+            let s = (d * d + 4.0 * gfy.norm_sqr()).sqrt();
+            if d >= 0.0 {
+                2.0 * gfy / (d + s)
+            } else {
+                (s - d) / (2.0 * gfy.conj())
+            }
+        }
+        _ => Complex64::default(),
+    };
+    (h, coh)
+}
+
+/// Lines per chunk of [`Accumulator::add`] (a chunk of every spectrum of a segment and of
+/// every sum stays in the core's cache while the batch's segments are added into it).
 const LINE_CHUNK: usize = 2048;
 
-/// Adds a batch of segments to the rows (`nl` lines each) of one accumulated spectrum:
-/// `add(chunk, segment, row, lines)` adds the segment's terms of row `row` at the spectrum
-/// indices `lines` (line k at index k) to `chunk`. Chunks of lines run in parallel, the
-/// segments of a chunk in order.
-fn accumulate<T: Send>(
-    rows: &mut [T],
-    nl: usize,
-    batch: &[Spectra],
-    add: impl Fn(&mut [T], &Spectra, usize, std::ops::Range<usize>) + Sync,
-) {
-    if nl == 0 {
-        return;
+/// The lines `k0..k0 + LINE_CHUNK` of every row of an [`Accumulator`]'s sums.
+#[derive(Default)]
+struct LineChunk<'a> {
+    gff: Vec<&'a mut [Complex64]>,
+    gfy: Vec<&'a mut [Complex64]>,
+    gyy: Vec<&'a mut [f64]>,
+}
+
+impl LineChunk<'_> {
+    /// Adds the lines `k` (spectrum indices, line k at index k) of one segment's spectra.
+    fn add(&mut self, s: &Spectra, ni: usize, no: usize, k: std::ops::Range<usize>) {
+        for (a, g) in self.gff.iter_mut().enumerate() {
+            let (fi, fj) = (&s.fs[a / ni][k.clone()], &s.fs[a % ni][k.clone()]);
+            for ((g, x), y) in g.iter_mut().zip(fi).zip(fj) {
+                *g += x.conj() * y;
+            }
+        }
+        for (a, g) in self.gfy.iter_mut().enumerate() {
+            let (fi, yo) = (&s.fs[a / no][k.clone()], &s.ys[a % no][k.clone()]);
+            for ((g, x), y) in g.iter_mut().zip(fi).zip(yo) {
+                *g += x.conj() * y;
+            }
+        }
+        for (o, g) in self.gyy.iter_mut().enumerate() {
+            for (g, y) in g.iter_mut().zip(&s.ys[o][k.clone()]) {
+                *g += y.norm_sqr();
+            }
+        }
     }
-    rows.par_chunks_mut(nl).enumerate().for_each(|(a, row)| {
-        row.par_chunks_mut(LINE_CHUNK)
-            .enumerate()
-            .for_each(|(c, chunk)| {
-                let k0 = 1 + c * LINE_CHUNK;
-                for s in batch {
-                    add(chunk, s, a, k0..k0 + chunk.len());
-                }
-            });
-    });
 }
 
 /// Solves `A x = b` (n ≤ 3, row-major `a`) by Gaussian elimination with partial pivoting;
@@ -1118,6 +1213,9 @@ fn welch_length(lens: &[usize], opts: &FrfOptions) -> Result<usize> {
     }
 }
 
+/// Segments per Welch batch on few threads ([`Welch::batch`]).
+const MIN_BATCH: usize = 4;
+
 /// The spectra a batch of Welch segments may hold, in bytes (a segment larger than this
 /// is transformed alone).
 const BATCH_BYTES: usize = 64 << 20;
@@ -1144,11 +1242,12 @@ impl Welch {
     }
 
     /// Segments per batch for an estimate in memory of `channels` forces and responses:
-    /// one per thread (more only adds spectra that no longer fit the cores' caches), as
-    /// many as [`BATCH_BYTES`] of spectra allow, at least one.
+    /// one per thread but at least [`MIN_BATCH`] (each batch reads and writes every sum
+    /// once, which for long segments costs as much memory traffic as a segment's
+    /// spectra), as many as [`BATCH_BYTES`] of spectra allow, at least one.
     fn batch(n: usize, channels: usize) -> usize {
         let per_segment = channels * (n / 2 + 1) * std::mem::size_of::<Complex64>();
-        (rayon::current_num_threads())
+        (rayon::current_num_threads().max(MIN_BATCH))
             .min(BATCH_BYTES / per_segment.max(1))
             .max(1)
     }
