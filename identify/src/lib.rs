@@ -6,6 +6,7 @@
 //! | step (paper section) | module |
 //! |---|---|
 //! | reading data (docs/formats.md) | [`read`], [`timeseries`] |
+//! | the response sensor's mass loading removed | [`mass_loading`] |
 //! | FRF exchange with modal software: universal file dataset 58/58b | [`uff`] |
 //! | FRF estimation, H1/H2/Hv, impact processing (2.1) | [`spectra`] |
 //! | model order from a stabilization diagram (2.2) | [`stabilization`] |
@@ -44,6 +45,7 @@ pub mod frf;
 pub mod interpolate;
 mod lanes;
 pub mod lobes;
+pub mod mass_loading;
 pub mod modal_update;
 pub mod model;
 pub mod operating;
