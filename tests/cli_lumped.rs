@@ -176,9 +176,7 @@ fn lumped_campaign_twin_fits_the_truth_at_measured_and_unmeasured_poses() {
     let score = |p: [f64; 3]| {
         [(0, 0), (1, 1)]
             .iter()
-            // the records state the accelerometer's mass (`# sensor_mass=`): identify
-            // removes its loading, the twin is the bare structure's
-            .map(|&c| twin_vs_loaded_truth(&twin, &machine, p, c, band, 0.0))
+            .map(|&c| twin_vs_loaded_truth(&twin, &machine, p, c, band, setup.tip_mass))
             .fold(f64::INFINITY, f64::min)
     };
     let measured: Vec<f64> = grid.iter().map(|&p| score(p)).collect();

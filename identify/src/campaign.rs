@@ -554,10 +554,12 @@ pub fn identify_campaign(
         .map(|g| {
             let recs: Vec<TimeSeries> = g.records.iter().map(|&i| records[i].clone()).collect();
             let mut est = estimate_frf(&recs, &opts.frf)?;
-            // the sensor's mass loading removed where the records state it
-            // (mass_loading; in the frequency domain: the impact estimate's force window
-            // would cut a force f − m·a corrected in time)
-            if let Some(m) = crate::mass_loading::common_sensor_mass_kg(&recs) {
+            // the sensor's mass loading removed where the records state it and the
+            // caller asks for it (mass_loading; in the frequency domain: the impact
+            // estimate's force window would cut a force f − m·a corrected in time)
+            if let Some(m) = crate::mass_loading::common_sensor_mass_kg(&recs)
+                .filter(|_| crate::mass_loading::enabled())
+            {
                 crate::mass_loading::unload_frf(
                     &mut est.frf,
                     m,
