@@ -29,8 +29,9 @@ import tempfile
 import time
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-MTWIN = os.path.join(ROOT, "target", "release", "mtwin")
-CASES = os.path.join(ROOT, "target", "release", "examples", "cases")
+TARGET = os.environ.get("CARGO_TARGET_DIR") or os.path.join(ROOT, "target")
+MTWIN = os.path.join(TARGET, "release", "mtwin")
+CASES = os.path.join(TARGET, "release", "examples", "cases")
 CAUSES = ["none", "mode_change", "unmodeled_mode", "time_delay", "disturbance",
           "cross_coupling", "pose_dependence", "nonlinearity", "unexplained"]
 ROWS = ["healthy", "mode_change", "unmodeled_mode", "time_delay", "disturbance",

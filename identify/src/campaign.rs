@@ -553,7 +553,24 @@ pub fn identify_campaign(
         .par_iter()
         .map(|g| {
             let recs: Vec<TimeSeries> = g.records.iter().map(|&i| records[i].clone()).collect();
-            let est = estimate_frf(&recs, &opts.frf)?;
+            let mut est = estimate_frf(&recs, &opts.frf)?;
+            // the sensor's mass loading removed where the records state it and the
+            // caller asks for it (mass_loading; in the frequency domain: the impact
+            // estimate's force window would cut a force f − m·a corrected in time)
+            if let Some(m) = crate::mass_loading::common_sensor_mass_kg(&recs)
+                .filter(|_| crate::mass_loading::enabled())
+            {
+                crate::mass_loading::unload_frf(
+                    &mut est.frf,
+                    m,
+                    est.exp_window_sigma.unwrap_or(0.0),
+                );
+                est.warnings.push(format!(
+                    "mass loading removed: the records state a sensor mass of {:.1} g at the \
+                     tool (sensor_mass={m}); the twin is of the structure without it",
+                    m * 1e3
+                ));
+            }
             Ok(MeasuredFrf {
                 facts: EstimateFacts {
                     excitation_band_hz: est.excitation_band_hz,

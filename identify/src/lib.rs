@@ -7,6 +7,7 @@
 //! | step (paper section) | module |
 //! |---|---|
 //! | reading data: time series, FRF CSV, UFF 58/58b (2.1, docs/formats.md) | [`io`] ([`read`], [`uff`]) |
+//! | the response sensor's mass loading removed (`# sensor_mass=`, opt-in) | [`mass_loading`] |
 //! | FRF estimation: H1/H2/Hv, impact processing, chirps, coherence (2.1) | [`spectra`] |
 //! | the automatic decisions: band, channels, excitation, with their evidence | [`plan`] |
 //! | model order from a stabilization diagram, rational fit by SK iterations / vector fitting and refinement (2.2) | [`fit`] ([`stabilization`], [`rational_fit`]) |
@@ -42,6 +43,7 @@ pub mod fit;
 pub mod io;
 mod lanes;
 pub mod lobes;
+pub mod mass_loading;
 pub mod modal_update;
 pub mod operating;
 pub mod output_error;

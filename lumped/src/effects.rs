@@ -4,6 +4,14 @@
 //! All tests are at the workspace centre [`CENTRE`] on a given base machine (the one the
 //! twin was identified from).
 //!
+//! Effects that act on a mode (mode change, pose dependence, the cubic joint) pick among
+//! the modes a healthy impact test observes, and a turned guideway's cross channel must be
+//! observed in its own test ([`crate::observe`]: coherence ≥ 0.9 within ±2 % of the
+//! mode): most of this machine's modes lie at 50-150 Hz, where a hammer test's
+//! acceleration sinks into the accelerometer's 1/f noise (coherence 0.5-0.9 there), and
+//! an effect acting only there leaves no evidence in the data that any diagnosis could
+//! name. The effects themselves (joints, factors, angles, cubic stiffness) are unchanged.
+//!
 //! | effect | what is changed | records | answer details |
 //! |---|---|---|---|
 //! | `healthy` | nothing | milling at 2 speeds | — |
@@ -20,6 +28,7 @@ use crate::measure::{
     impact_clean, milling_clean, milling_comments, run_input, standard_hits, unit, Clean, Setup,
 };
 use crate::modal::{pair_modes, Mode};
+use crate::observe::{impact_coherence, Observability, OBSERVED_COHERENCE};
 use crate::record::Record;
 use crate::sim::Input;
 use crate::structure::{
@@ -209,7 +218,28 @@ pub fn case_with(base: &Machine, effect: Effect, seed: u64, o: &CaseOptions) -> 
     let mut rng = StdRng::seed_from_u64(seed ^ 0x0005_eed1_u64.wrapping_mul(effect as u64 + 1));
     let fresh = 10_000 + seed * 100;
     let before = base.modes(CENTRE);
-    let vis = visible(&before, 0.05);
+    let vis_all = visible(&before, 0.05);
+    // the visible modes a healthy impact test observes (see the module docs); the
+    // effects that name no mode (delay, new mode, disturbance, healthy) keep them all
+    let vis: Vec<usize> = if matches!(
+        effect,
+        Effect::ModeChange | Effect::PoseDependence | Effect::Nonlinearity
+    ) {
+        let h = impacts(base, o, CENTRE, fresh + 50, "observe");
+        let obs = Observability::from_records(&h[0].1, &h[1].1);
+        let seen: Vec<usize> = vis_all
+            .iter()
+            .copied()
+            .filter(|&i| obs.observes(before[i].axis(), before[i].freq_hz))
+            .collect();
+        if seen.is_empty() {
+            vis_all
+        } else {
+            seen
+        }
+    } else {
+        vis_all
+    };
     let mut machine = base.clone();
     let mut details = serde_json::Map::new();
     let records: Vec<(String, Record)> = match effect {
@@ -532,59 +562,73 @@ pub fn case_with(base: &Machine, effect: Effect, seed: u64, o: &CaseOptions) -> 
                 (Joint::RamGuide, 0),
                 (Joint::RamGuide, 1),
             ];
-            let &(joint, axis) = choices.choose(&mut rng).unwrap_or(&choices[0]);
-            let angle = rng.gen_range(15f64..30.0).to_radians()
-                * if rng.gen_bool(0.5) { 1.0 } else { -1.0 };
-            machine.oblique = Some(Oblique {
-                joint,
-                axis,
-                angle_rad: angle,
-            });
             let freqs: Vec<f64> = (0..600)
                 .map(|i| 30.0 * (100f64).powf(i as f64 / 599.0))
                 .collect();
             let old = base.analytic_frf(CENTRE, &freqs);
-            let new = machine.analytic_frf(CENTRE, &freqs);
-            let peak = |f: &crate::Frf, o: usize, i: usize| {
-                f.h.iter().map(|h| h[(o, i)].norm()).fold(0.0, f64::max)
-            };
-            let mut best = (0.0, 0usize, 0usize, 0usize);
-            for (o_, i_) in [(1usize, 0usize), (2, 0), (2, 1)] {
-                let scale = (peak(&new, o_, o_) * peak(&new, i_, i_)).sqrt();
-                for (l, (a, b)) in old.h.iter().zip(&new.h).enumerate() {
-                    let gain = (b[(o_, i_)].norm() - a[(o_, i_)].norm()) / scale;
-                    if gain > best.0 {
-                        best = (gain, o_, i_, l);
+            // draws until the new cross channel is observed at its named mode in the
+            // case's own test (module docs); the last draw if none is
+            let mut draw = 0;
+            loop {
+                draw += 1;
+                let &(joint, axis) = choices.choose(&mut rng).unwrap_or(&choices[0]);
+                let angle = rng.gen_range(15f64..30.0).to_radians()
+                    * if rng.gen_bool(0.5) { 1.0 } else { -1.0 };
+                machine = base.clone();
+                machine.oblique = Some(Oblique {
+                    joint,
+                    axis,
+                    angle_rad: angle,
+                });
+                let new = machine.analytic_frf(CENTRE, &freqs);
+                let peak = |f: &crate::Frf, o: usize, i: usize| {
+                    f.h.iter().map(|h| h[(o, i)].norm()).fold(0.0, f64::max)
+                };
+                let mut best = (0.0, 0usize, 0usize, 0usize);
+                for (o_, i_) in [(1usize, 0usize), (2, 0), (2, 1)] {
+                    let scale = (peak(&new, o_, o_) * peak(&new, i_, i_)).sqrt();
+                    for (l, (a, b)) in old.h.iter().zip(&new.h).enumerate() {
+                        let gain = (b[(o_, i_)].norm() - a[(o_, i_)].norm()) / scale;
+                        if gain > best.0 {
+                            best = (gain, o_, i_, l);
+                        }
                     }
                 }
+                let (gain, o_, i_, l) = best;
+                // name the mode nearest the largest increase
+                let after = machine.modes(CENTRE);
+                let f_at = freqs[l];
+                let fm = after
+                    .iter()
+                    .filter(|m| !m.real)
+                    .min_by(|a, b| {
+                        (a.freq_hz / f_at)
+                            .ln()
+                            .abs()
+                            .total_cmp(&(b.freq_hz / f_at).ln().abs())
+                    })
+                    .map(|m| m.freq_hz)
+                    .unwrap_or(f_at);
+                details.insert("channel".into(), json!(format!("{}{}", AX[o_], AX[i_])));
+                details.insert(
+                    "reciprocal_channel".into(),
+                    json!(format!("{}{}", AX[i_], AX[o_])),
+                );
+                details.insert("freq_hz".into(), json!(round(fm, 2)));
+                details.insert("old_peak_m_per_n".into(), json!(peak(&old, o_, i_)));
+                details.insert("new_peak_m_per_n".into(), json!(peak(&new, o_, i_)));
+                details.insert("rise_rel_to_direct".into(), json!(round(gain, 4)));
+                details.insert("joint".into(), json!(joint.name()));
+                details.insert("angle_deg".into(), json!(round(angle.to_degrees(), 2)));
+                let recs = impacts(&machine, o, CENTRE, fresh, "cross_coupling");
+                let (fr, coh) = impact_coherence(&recs[i_.min(1)].1, i_);
+                let seen = crate::observe::coherence_near(&fr, &coh[o_], fm);
+                details.insert("cross_coherence".into(), json!(round(seen, 3)));
+                if seen >= OBSERVED_COHERENCE || draw >= 30 {
+                    break recs;
+                }
+                details.clear();
             }
-            let (gain, o_, i_, l) = best;
-            // name the mode nearest the largest increase
-            let after = machine.modes(CENTRE);
-            let f_at = freqs[l];
-            let fm = after
-                .iter()
-                .filter(|m| !m.real)
-                .min_by(|a, b| {
-                    (a.freq_hz / f_at)
-                        .ln()
-                        .abs()
-                        .total_cmp(&(b.freq_hz / f_at).ln().abs())
-                })
-                .map(|m| m.freq_hz)
-                .unwrap_or(f_at);
-            details.insert("channel".into(), json!(format!("{}{}", AX[o_], AX[i_])));
-            details.insert(
-                "reciprocal_channel".into(),
-                json!(format!("{}{}", AX[i_], AX[o_])),
-            );
-            details.insert("freq_hz".into(), json!(round(fm, 2)));
-            details.insert("old_peak_m_per_n".into(), json!(peak(&old, o_, i_)));
-            details.insert("new_peak_m_per_n".into(), json!(peak(&new, o_, i_)));
-            details.insert("rise_rel_to_direct".into(), json!(round(gain, 4)));
-            details.insert("joint".into(), json!(joint.name()));
-            details.insert("angle_deg".into(), json!(round(angle.to_degrees(), 2)));
-            impacts(&machine, o, CENTRE, fresh, "cross_coupling")
         }
         Effect::Disturbance => {
             let mills = millings(o, &mut rng);

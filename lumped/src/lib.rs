@@ -40,6 +40,7 @@ pub mod excitation;
 pub mod frf;
 pub mod measure;
 pub mod modal;
+pub mod observe;
 pub mod record;
 pub mod sim;
 pub mod structure;

@@ -190,6 +190,10 @@ impl Clean {
             Response::Displacement => "sensor=displacement (non-contact, relative tool - workpiece)".into(),
         };
         comments.push(sensor);
+        if setup.response == Response::Acceleration && setup.tip_mass > 0.0 {
+            // the mass loading's key (docs/formats.md): what a tester writes in the header
+            comments.push(format!("sensor_mass={}", setup.tip_mass));
+        }
         comments.push(format!(
             "generator=lumped; fs={} Hz simulated at {}x, anti-alias FIR, noise white {} pink {} of range",
             setup.daq.fs, setup.daq.oversample, setup.response_noise.white, setup.response_noise.pink

@@ -21,6 +21,12 @@ use std::f64::consts::PI;
 /// by a factor of about 3 over 8 averages.
 const DISTURBANCE_MIN_STRENGTH: f64 = 20.0;
 
+/// A tone's amplitude in the second half of the building part over its amplitude in the
+/// first half, below which the line is a decaying resonance, not a vibration from outside
+/// (a constant tone scatters around 1; a mode of 3 % damping at 72 Hz rung by the cut's
+/// start has decayed by orders of magnitude after a second).
+const PERSISTENT_MIN: f64 = 0.4;
+
 /// Incoherent-power ratio above which a disturbance needs no minimum held-out gain.
 pub(super) const DISTURBANCE_PROVEN_STRENGTH: f64 = 1000.0;
 
@@ -171,6 +177,21 @@ pub(super) fn cand_disturbance(
             let Some((ca, cb)) = tone(res, ts, fhz) else {
                 continue;
             };
+            // a vibration from outside persists through the record; the free decay of a
+            // resonance (the cut's start rings the low modes, not coherent with the
+            // force over the record) dies out: the tone's amplitude in the second half
+            // of the building part must stay near the first half's
+            let amp = |r: &[f64]| tone(r, ts, fhz).map_or(0.0, |(a, b)| a.hypot(b));
+            let (first, second) = (amp(&res[..n / 2]), amp(&res[n / 2..]));
+            trace(|| {
+                format!(
+                    "disturbance: {a} line at {fhz:.2} Hz, amplitude second/first half {:.2}",
+                    second / first.max(1e-300)
+                )
+            });
+            if second < PERSISTENT_MIN * first {
+                continue;
+            }
             sines.push(Sinusoid {
                 freq_hz: fhz,
                 axis: a,

@@ -419,7 +419,13 @@ const EMPTY_CHANNEL_MIN_RUN: usize = 5;
 /// measured pose nearest to `pose` against the FRF it was identified from. New data more
 /// precise than the twin's own (long operating records) must not call the twin's
 /// identification error a misfit.
-pub fn add_twin_uncertainty(pts: &mut [Points], twin: &Twin, pose: [f64; 3]) {
+///
+/// Also the twin's own estimate's variance there (its stored FRF's standard error from
+/// its coherence and averages, `OperatingSpectra::rel_error`): a twin identified from a
+/// few noisy hits is no better than that, whatever its fit to them. And a channel the
+/// campaign trusted only in a narrower band (its plan's `band_hz`: coherence below the
+/// trust level outside) is no evidence outside it: those lines are dropped.
+pub fn add_twin_uncertainty(pts: &mut Vec<Points>, twin: &Twin, pose: [f64; 3]) {
     let dist = |q: &[f64; 3]| (0..3).map(|a| (q[a] - pose[a]).powi(2)).sum::<f64>();
     let Some(pm) = twin
         .poses
@@ -433,7 +439,18 @@ pub fn add_twin_uncertainty(pts: &mut [Points], twin: &Twin, pose: [f64; 3]) {
         model.shift_poles(-s);
     }
     let fr = &pm.frf.freqs_hz;
+    let averages = pm.plan.as_ref().and_then(|p| p.averages).unwrap_or(1);
     for p in pts.iter_mut() {
+        let trusted = pm.plan.as_ref().and_then(|pl| {
+            pl.channels
+                .iter()
+                .find(|d| d.channel == p.channel && d.used)
+                .and_then(|d| d.band_hz)
+        });
+        if let Some([lo, hi]) = trusted {
+            let keep: Vec<bool> = p.freqs_hz.iter().map(|f| *f >= lo && *f <= hi).collect();
+            retain_lines(p, &keep);
+        }
         let (Some(ci), Some(stored)) = (
             model.channel_index(p.channel),
             pm.frf.channels.iter().find(|c| c.channel == p.channel),
@@ -443,7 +460,17 @@ pub fn add_twin_uncertainty(pts: &mut [Points], twin: &Twin, pose: [f64; 3]) {
         let r2: Vec<f64> = fr
             .iter()
             .zip(&stored.h)
-            .map(|(f, h)| (model.eval_hz(ci, *f) - h).norm_sqr())
+            .enumerate()
+            .map(|(i, (f, h))| {
+                let est = stored
+                    .coherence
+                    .as_ref()
+                    .and_then(|g| g.get(i))
+                    .map_or(0.0, |g| {
+                        (OperatingSpectra::rel_error(*g, averages) * h.norm()).powi(2)
+                    });
+                (model.eval_hz(ci, *f) - h).norm_sqr() + est
+            })
             .collect();
         if r2.is_empty() {
             continue;
@@ -460,6 +487,7 @@ pub fn add_twin_uncertainty(pts: &mut [Points], twin: &Twin, pose: [f64; 3]) {
             *sg = (*sg * *sg + local).sqrt();
         }
     }
+    pts.retain(|p| !p.h.is_empty());
 }
 
 pub(super) fn band_of(twin: &Twin) -> (f64, f64) {

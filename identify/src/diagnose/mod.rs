@@ -302,6 +302,19 @@ pub fn diagnose(
     if records.is_empty() {
         return Err(Error::BadInput("no data files given".into()));
     }
+    // the sensor's mass loading removed where the records state it (mass_loading): the
+    // twin is of the structure without the sensor, as are records without one
+    let (unloaded, mass_notes) = if crate::mass_loading::enabled() {
+        crate::mass_loading::unload_all(records)
+    } else {
+        (records.to_vec(), Vec::new())
+    };
+    let sensor_masses: Vec<f64> = records
+        .iter()
+        .filter(|r| r.response_kind == Some(crate::timeseries::ResponseKind::Acceleration))
+        .filter_map(crate::mass_loading::sensor_mass_kg)
+        .collect();
+    let records = &unloaded[..];
     let splits: Vec<Split> = records
         .iter()
         .map(|r| split(r, opts.holdout_fraction))
@@ -682,6 +695,15 @@ pub fn diagnose(
         }
     }
     details.insert("holdout".into(), json!(holdout));
+    if let Some(m) = sensor_masses
+        .iter()
+        .copied()
+        .reduce(f64::max)
+        .filter(|_| !mass_notes.is_empty())
+    {
+        details.insert("sensor_mass_kg".into(), json!(m));
+        details.insert("mass_loading".into(), json!(mass_notes.join("; ")));
+    }
     number_modes(&mut details);
     for s in &mut scores {
         number_modes(&mut s.details);
