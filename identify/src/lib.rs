@@ -8,12 +8,12 @@
 //! |---|---|
 //! | reading data: time series, FRF CSV, UFF 58/58b (2.1, docs/formats.md) | [`io`] ([`read`], [`uff`]) |
 //! | the response sensor's mass loading removed (`# sensor_mass=`, opt-in) | [`mass_loading`] |
-//! | FRF estimation: H1/H2/Hv, impact processing, chirps, coherence (2.1) | [`spectra`] |
+//! | FRF estimation: H1/H2/Hv, impact processing, chirps, coherence, operating spectra (2.1, 2.3): one planner and one window for every spectrum | [`spectra`] |
 //! | the automatic decisions: band, channels, excitation, with their evidence | [`plan`] |
 //! | model order from a stabilization diagram, rational fit by SK iterations / vector fitting and refinement (2.2) | [`fit`] ([`stabilization`], [`rational_fit`]) |
 //! | a campaign: one fit per pose, modes tracked over the poses, leave-one-pose-out (2.2) | [`campaign`] |
 //! | interpolation between poses, the twin file, the model, simulation (2.2, eq. 1 and 3) | re-exported from `mtwin-core`: [`interpolate`], [`twin`], [`model`], [`simulate`], [`extended`] |
-//! | refit from operating data: operating spectra, drift check, intermediate FRF, modal update, output error, spread to the poses, history (2.3, 3.2) | [`operating`], [`refit`], [`modal_update`], [`output_error`] |
+//! | refit from operating data: operating spectra, drift check, intermediate FRF, modal update, output error, spread to the poses, history (2.3, 3.2) | [`refit`] ([`modal_update`], [`output_error`]; operating spectra in [`spectra::operating`]) |
 //! | diagnosis: what the twin gets wrong, its cause, the extended twin (ours, SPEC section 4) | [`diagnose`] (one file per cause) |
 //! | stability lobes of the twin (the co-simulation's use, ours) | [`lobes`] |
 //!
@@ -44,9 +44,6 @@ pub mod io;
 mod lanes;
 pub mod lobes;
 pub mod mass_loading;
-pub mod modal_update;
-pub mod operating;
-pub mod output_error;
 pub mod plan;
 pub mod refit;
 pub mod spectra;
@@ -56,6 +53,8 @@ mod test_util;
 // the steps by their own names (`identify::read`, `identify::rational_fit`, ...)
 pub use fit::{rational_fit, stabilization};
 pub use io::{read, uff};
+pub use refit::{modal_update, output_error};
+pub use spectra::operating;
 
 // the twin as data and how to run it live in mtwin-core (the FMU links only that);
 // re-exported so that `identify::model`, `identify::twin`, ... keep their paths

@@ -48,6 +48,9 @@
 //! 5. **History**: an entry with the data files, the figures and the complete previous
 //!    pose models is appended; nothing is ever removed.
 
+pub mod modal_update;
+pub mod output_error;
+
 use crate::axis::Axis;
 use crate::axis::Channel;
 use crate::campaign::{channel_fits, channel_fits_as};

@@ -83,7 +83,7 @@ use crate::frf::{Frf, FrfChannel};
 use crate::timeseries::{ResponseKind, TimeSeries};
 use num_complex::Complex64;
 use rayon::prelude::*;
-use realfft::{RealFftPlanner, RealToComplex};
+use realfft::{ComplexToReal, RealFftPlanner, RealToComplex};
 use std::f64::consts::PI;
 use std::sync::Arc;
 
@@ -557,6 +557,8 @@ type Cache<T> = std::cell::RefCell<Vec<(usize, T)>>;
 thread_local! {
     /// Real-FFT plans of the last [`PLAN_CACHE`] DFT lengths, most recent last.
     static PLANS: Cache<Plan> = const { std::cell::RefCell::new(Vec::new()) };
+    /// Inverse real-FFT plans, likewise.
+    static INVERSE_PLANS: Cache<Arc<dyn ComplexToReal<f64>>> = const { std::cell::RefCell::new(Vec::new()) };
     /// Periodic Hann windows, likewise.
     static WINDOWS: Cache<Arc<[f64]>> = const { std::cell::RefCell::new(Vec::new()) };
     /// Input and scratch buffers of the Welch transforms ([`Welch::add_segments`]).
@@ -588,10 +590,19 @@ fn kept<T: Clone>(
     })
 }
 
-/// The forward real-FFT plan of length `n` ([`kept`]).
-fn plan(n: usize) -> Plan {
+/// The forward real-FFT plan of length `n`, kept per thread for the last few lengths: every spectrum in mtwin (Welch,
+/// impact, full-record, operating, output error, diagnosis) is planned here, once per
+/// length and thread.
+pub fn plan(n: usize) -> Plan {
     kept(&PLANS, n, || {
         RealFftPlanner::<f64>::new().plan_fft_forward(n)
+    })
+}
+
+/// The inverse real-FFT plan of length `n`, kept likewise, beside [`plan`].
+pub fn inverse_plan(n: usize) -> Arc<dyn ComplexToReal<f64>> {
+    kept(&INVERSE_PLANS, n, || {
+        RealFftPlanner::<f64>::new().plan_fft_inverse(n)
     })
 }
 
@@ -1473,6 +1484,7 @@ fn chirp(records: &[TimeSeries], infos: &[RecordInfo], ctx: &mut Ctx) -> Result<
 }
 
 mod impact;
+pub mod operating;
 mod stream;
 pub use stream::{estimate_frf_streamed, excitation_of_scan};
 

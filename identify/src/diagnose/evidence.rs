@@ -579,13 +579,12 @@ impl HeldOut {
     /// effect's mode carries little of the response power. `None` without power there.
     pub(super) fn band_fit(&self, lo: f64, hi: f64) -> Option<f64> {
         let (mut err, mut pow) = (0.0, 0.0);
-        let mut planner = realfft::RealFftPlanner::<f64>::new();
         for (m, y, dt) in &self.segments {
             let n = m.len();
             if n < 4 {
                 continue;
             }
-            let fft = planner.plan_fft_forward(n);
+            let fft = crate::spectra::plan(n);
             let spectrum = |v: &[f64]| {
                 let mut x = v.to_vec();
                 let mut out = fft.make_output_vec();

@@ -31,7 +31,7 @@ use crate::timeseries::{ResponseKind, TimeSeries};
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
 use rayon::prelude::*;
-use realfft::{ComplexToReal, RealFftPlanner};
+use realfft::ComplexToReal;
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 
@@ -235,18 +235,13 @@ fn skip_samples(model: &ModalModel, ts: &TimeSeries) -> usize {
     ((6.0 * tau * fs).ceil() as usize).min(ts.len() / 4)
 }
 
-fn prepare(
-    held: &ModalModel,
-    skip: usize,
-    ts: &TimeSeries,
-    planner: &mut RealFftPlanner<f64>,
-) -> Result<Prepared> {
+fn prepare(held: &ModalModel, skip: usize, ts: &TimeSeries) -> Result<Prepared> {
     let n = ts.len();
     // zero padding as long as the unfitted start: the wrap-around of the circular
     // convolution then decays at least as much as the true start-up transient
     let m = fast_len(n + skip.max(16));
-    let fwd = planner.plan_fft_forward(m);
-    let inverse = planner.plan_fft_inverse(m);
+    let fwd = crate::spectra::plan(m);
+    let inverse = crate::spectra::inverse_plan(m);
     let dw = 2.0 * std::f64::consts::PI / (m as f64 * ts.dt);
     let omega: Vec<f64> = (0..=m / 2).map(|k| k as f64 * dw).collect();
     let accel = ts.response_kind == Some(ResponseKind::Acceleration);
@@ -738,7 +733,6 @@ pub fn refine(
             c.num[k].b1 = 0.0;
         }
     }
-    let mut planner = RealFftPlanner::<f64>::new();
     let mut recs = Vec::new();
     let mut skipped_s: f64 = 0.0;
     for ts in records {
@@ -754,7 +748,7 @@ pub fn refine(
         };
         let skip = skip_samples(start, ts);
         skipped_s = skipped_s.max(skip as f64 * ts.dt);
-        recs.push(prepare(&held, skip, ts, &mut planner)?);
+        recs.push(prepare(&held, skip, ts)?);
     }
     // outputs measured somewhere; per output the channels with an excited input
     let mut outputs = Vec::new();
@@ -1011,7 +1005,7 @@ mod tests {
         let mut lcg = crate::test_util::Lcg(12345);
         let f: Vec<f64> = (0..n).map(|_| lcg.uniform()).collect();
         let m = fast_len(2 * n);
-        let mut planner = RealFftPlanner::<f64>::new();
+        let mut planner = realfft::RealFftPlanner::<f64>::new();
         let fwd = planner.plan_fft_forward(m);
         let inv = planner.plan_fft_inverse(m);
         let mut buf = vec![0.0; m];
