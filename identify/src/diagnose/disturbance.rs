@@ -100,16 +100,12 @@ pub(super) fn cand_disturbance(
     // the force's own lines (a periodic force, e.g. the tooth-passing harmonics in
     // milling): a residual peak there is the twin's error at a forced line, not a
     // vibration from outside
+    let window = crate::spectra::hann(n);
     let hann = |x: &[f64]| -> Vec<f64> {
         let mut b: Vec<Complex64> = x
             .iter()
-            .enumerate()
-            .map(|(i, v)| {
-                Complex64::new(
-                    v * (0.5 - 0.5 * (2.0 * PI * i as f64 / n as f64).cos()),
-                    0.0,
-                )
-            })
+            .zip(&window)
+            .map(|(v, w)| Complex64::new(v * w, 0.0))
             .collect();
         b.resize(nfft, Complex64::new(0.0, 0.0));
         fft.process(&mut b);
