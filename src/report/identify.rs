@@ -263,6 +263,34 @@ pub struct ChannelPlot<'a> {
     pub view: FrfView,
 }
 
+/// One FRF figure (either view) into `b`: `panels`, then the coherence `coh` under them
+/// when it was measured.
+fn push_figure<'a>(
+    b: &mut String,
+    class: &str,
+    title: &str,
+    band: [f64; 2],
+    xrange: Option<(f64, f64)>,
+    mut panels: Vec<Panel<'a>>,
+    coh: &'a [Series<'a>],
+) {
+    if coh.first().is_some_and(|s| !s.y.is_empty()) {
+        panels.push(Panel {
+            yrange: Some((0.0, 1.05)),
+            ..Panel::new("coherence γ²", Scale::Lin, coh, 100)
+        });
+    }
+    let svg = figure(&Figure {
+        title,
+        xlabel: "frequency [Hz]",
+        xscale: xscale(band),
+        xrange,
+        width: 760,
+        panels: &panels,
+    });
+    let _ = writeln!(b, "<div class=\"{class}\">{svg}</div>");
+}
+
 /// The figures of one channel (`c.view`), each in a `div` of class `magph` or `reim` (the
 /// switch of [`FrfView::Both`] hides one class), with the coherence under the FRF.
 pub fn channel_figures(b: &mut String, c: &ChannelPlot<'_>) {
@@ -314,33 +342,19 @@ pub fn channel_figures(b: &mut String, c: &ChannelPlot<'_>) {
         let coh = coherence(&sel);
         let coh_s = [line("", &fx, &coh, 2)];
         let n = if c.model.is_some() { 2 } else { 1 };
-        let mut panels = vec![
+        let panels = vec![
             Panel::new("|H| [µm/N]", Scale::Log, &mag[..n], 250),
             Panel {
                 yrange: Some((-190.0, 190.0)),
                 ..Panel::new("phase [°]", Scale::Phase, &ph[..n], 140)
             },
         ];
-        if !coh.is_empty() {
-            panels.push(Panel {
-                yrange: Some((0.0, 1.05)),
-                ..Panel::new("coherence γ²", Scale::Lin, &coh_s, 100)
-            });
-        }
         let title = if c.model.is_some() {
             format!("{}, measured vs model{fit}", c.head)
         } else {
             format!("{}, magnitude and phase", c.head)
         };
-        let svg = figure(&Figure {
-            title: &title,
-            xlabel: "frequency [Hz]",
-            xscale: xscale(c.band),
-            xrange: xrange(&fx),
-            width: 760,
-            panels: &panels,
-        });
-        let _ = writeln!(b, "<div class=\"magph\">{svg}</div>");
+        push_figure(b, "magph", &title, c.band, xrange(&fx), panels, &coh_s);
     }
     if c.view != FrfView::MagPhase {
         // the extremes of both parts kept: a mode's imaginary peak and the real part's
@@ -362,26 +376,12 @@ pub fn channel_figures(b: &mut String, c: &ChannelPlot<'_>) {
         let coh = coherence(&sel);
         let coh_s = [line("", &fx, &coh, 2)];
         let n = if c.model.is_some() { 2 } else { 1 };
-        let mut panels = vec![
+        let panels = vec![
             Panel::new("Re H [µm/N]", Scale::Lin, &re[..n], 200),
             Panel::new("Im H [µm/N]", Scale::Lin, &im[..n], 200),
         ];
-        if !coh.is_empty() {
-            panels.push(Panel {
-                yrange: Some((0.0, 1.05)),
-                ..Panel::new("coherence γ²", Scale::Lin, &coh_s, 100)
-            });
-        }
         let title = format!("{}, real and imaginary parts{fit}", c.head);
-        let svg = figure(&Figure {
-            title: &title,
-            xlabel: "frequency [Hz]",
-            xscale: xscale(c.band),
-            xrange: xrange(&fx),
-            width: 760,
-            panels: &panels,
-        });
-        let _ = writeln!(b, "<div class=\"reim\">{svg}</div>");
+        push_figure(b, "reim", &title, c.band, xrange(&fx), panels, &coh_s);
     }
 }
 
