@@ -98,3 +98,22 @@ impl std::fmt::Display for PoseText {
         write!(f, "({:.3}, {:.3}, {:.3}) m", p[0], p[1], p[2])
     }
 }
+
+/// Parses a pose `X,Y,Z` in metres (as the command line and FRF CSV comments give it).
+pub fn parse_pose(s: &str) -> Result<[f64; 3], String> {
+    let v: Vec<&str> = s.split(',').map(str::trim).collect();
+    if v.len() != 3 {
+        return Err(format!(
+            "expected X,Y,Z in metres (e.g. 0.2,0.1,0.05), got '{s}'"
+        ));
+    }
+    let mut p = [0.0; 3];
+    for (i, t) in v.iter().enumerate() {
+        p[i] = t
+            .parse::<f64>()
+            .ok()
+            .filter(|x| x.is_finite())
+            .ok_or_else(|| format!("'{t}' is not a finite number (expected X,Y,Z in metres)"))?;
+    }
+    Ok(p)
+}

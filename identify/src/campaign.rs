@@ -527,6 +527,24 @@ pub struct MeasuredFrf {
     pub facts: EstimateFacts,
 }
 
+impl MeasuredFrf {
+    /// A measured FRF file ([`crate::io::measured::read_frf_file`]) as one pose (at the
+    /// origin when neither the file nor the caller gave one).
+    pub fn from_file(path: &std::path::Path, file: crate::io::measured::FrfFile) -> Self {
+        MeasuredFrf {
+            facts: EstimateFacts {
+                measured_as: file.measured_as,
+                ..Default::default()
+            },
+            pose: file.pose.unwrap_or([0.0; 3]),
+            frf: file.frf,
+            exp_window_sigma: None,
+            sources: vec![path.display().to_string()],
+            warnings: Vec::new(),
+        }
+    }
+}
+
 /// Drops the FRF estimate's hint about identify's automatic band from `warnings`: it
 /// does not apply when the caller gave the band's top (`--fmax`).
 pub fn drop_automatic_band_hint(warnings: &mut [String]) {

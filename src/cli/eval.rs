@@ -114,7 +114,7 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
     }
     let model = ev.model_at(a.at).clone();
     let frf: Frf = model.frf(&freqs);
-    let format = super::frf_io::write_frf(&a.out, &frf, a.uff_binary)?;
+    let format = identify::io::measured::write_frf(&a.out, &frf, a.uff_binary)?;
     out.say(format!(
         "FRF of {} channels at {} ({} lines {:.1}-{:.1} Hz, {}) -> {} ({format})",
         frf.channels.len(),

@@ -258,7 +258,7 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
         ));
     }
     out.warnings(&est.warnings);
-    let format = super::frf_io::write_frf(&a.out, &est.frf, a.uff_binary)?;
+    let format = identify::io::measured::write_frf(&a.out, &est.frf, a.uff_binary)?;
     let mut chans = Vec::new();
     for c in &est.frf.channels {
         let mean_coh = c

@@ -1,9 +1,10 @@
 //! `mtwin identify`.
 
-use super::frf_io::{read_measured, split_inputs, FrfInputArgs};
+use super::frf_io::{read_measured, FrfInputArgs};
 use super::{check_output_not_input, frf::frf_options, read_series, BadInput, Output};
 use anyhow::{Context, Result};
 use identify::campaign::{identify_campaign, identify_frfs, CampaignOptions};
+use identify::io::measured::split_inputs;
 use identify::rational_fit::FitOptions;
 use std::path::PathBuf;
 

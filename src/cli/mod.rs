@@ -255,24 +255,7 @@ pub fn check_output_not_input(out: &Path, inputs: &[PathBuf]) -> Result<()> {
     Ok(())
 }
 
-/// Parses `X,Y,Z` in metres.
-pub fn parse_pose(s: &str) -> Result<[f64; 3], String> {
-    let v: Vec<&str> = s.split(',').map(str::trim).collect();
-    if v.len() != 3 {
-        return Err(format!(
-            "expected X,Y,Z in metres (e.g. 0.2,0.1,0.05), got '{s}'"
-        ));
-    }
-    let mut p = [0.0; 3];
-    for (i, t) in v.iter().enumerate() {
-        p[i] = t
-            .parse::<f64>()
-            .ok()
-            .filter(|x| x.is_finite())
-            .ok_or_else(|| format!("'{t}' is not a finite number (expected X,Y,Z in metres)"))?;
-    }
-    Ok(p)
-}
+pub use identify::axis::parse_pose;
 
 /// Reads time-series files in parallel, printing reader warnings (summarised, see
 /// [`Output::warnings`]).

@@ -1,0 +1,277 @@
+//! What kind of file a path holds (time series, FRF CSV, universal file), and measured
+//! FRFs read from it as one pose; FRFs written by the output's extension.
+//!
+//! The command line asks this module instead of guessing by itself, so a program that
+//! uses the library accepts the same files as `mtwin identify`.
+
+use super::{read, uff};
+use crate::axis::parse_pose;
+use crate::error::{Error, Result};
+use crate::frf::Frf;
+use mtwin_core::plan::MeasuredAs;
+use std::path::{Path, PathBuf};
+
+/// The kinds of input file the product reads.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum InputKind {
+    /// A time-series CSV (force and response columns over `t`).
+    TimeSeries,
+    /// An FRF CSV (`f_hz` first), docs/formats.md.
+    FrfCsv,
+    /// A universal file (dataset 58 or 58b).
+    Uff,
+}
+
+impl InputKind {
+    /// The kind of `path`: by extension for universal files, by the header of the
+    /// first line that is not a comment for CSVs (`f_hz` first: an FRF CSV).
+    pub fn of(path: &Path) -> InputKind {
+        if is_uff(path) {
+            InputKind::Uff
+        } else if is_frf_csv(path) {
+            InputKind::FrfCsv
+        } else {
+            InputKind::TimeSeries
+        }
+    }
+
+    /// True for measured FRFs (FRF CSV or UFF) rather than a time series.
+    pub fn is_frf(self) -> bool {
+        self != InputKind::TimeSeries
+    }
+}
+
+/// True for the extensions universal files go by (`.uff`, `.unv`, `.uf`, `.58`).
+pub fn is_uff(path: &Path) -> bool {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase())
+        .is_some_and(|e| matches!(e.as_str(), "uff" | "unv" | "uf" | "58"))
+}
+
+/// True when the CSV's header (first line that is not a comment) starts with `f_hz`.
+fn is_frf_csv(path: &Path) -> bool {
+    let Ok(f) = std::fs::File::open(path) else {
+        return false;
+    };
+    use std::io::{BufRead, BufReader};
+    for line in BufReader::new(f).lines().take(10_000) {
+        let Ok(line) = line else { return false };
+        let t = line.trim();
+        if t.is_empty() || t.starts_with('#') {
+            continue;
+        }
+        return t
+            .split(',')
+            .next()
+            .is_some_and(|h| h.trim().trim_matches('"') == "f_hz");
+    }
+    false
+}
+
+/// Splits inputs into time series and measured FRFs; mixing both is refused.
+pub fn split_inputs(files: &[PathBuf]) -> Result<(Vec<PathBuf>, Vec<PathBuf>)> {
+    let (frfs, series): (Vec<PathBuf>, Vec<PathBuf>) = files
+        .iter()
+        .cloned()
+        .partition(|f| InputKind::of(f).is_frf());
+    if let (Some(frf), Some(ts)) = (frfs.first(), series.first()) {
+        return Err(Error::BadInput(format!(
+            "{} is a measured FRF but {} is a time series: give either time series \
+             (FRFs are estimated) or measured FRFs (UFF / FRF CSV), not both",
+            frf.display(),
+            ts.display()
+        )));
+    }
+    Ok((series, frfs))
+}
+
+/// How to read measured FRF files: which universal-file functions, and the pose of files
+/// that do not carry one.
+#[derive(Debug, Clone, Default)]
+pub struct ReadOptions {
+    /// Pose of files that carry none (an FRF CSV may carry `# pose=X,Y,Z`).
+    pub pose: Option<[f64; 3]>,
+    /// UFF: only FRFs with this reference (excitation) node.
+    pub uff_ref: Option<i64>,
+    /// UFF: only FRFs with this response node.
+    pub uff_resp: Option<i64>,
+    /// UFF: what the ordinate is when the file leaves it unknown.
+    pub uff_ordinate: Option<MeasuredAs>,
+}
+
+/// One measured FRF file read as one pose.
+#[derive(Debug, Clone)]
+pub struct FrfFile {
+    /// The FRFs, receptance (m/N).
+    pub frf: Frf,
+    /// The file's pose, else the one of [`ReadOptions::pose`], else none.
+    pub pose: Option<[f64; 3]>,
+    /// What the file's FRFs measured when it says so (all alike) or the caller assumed.
+    pub measured_as: Option<MeasuredAs>,
+}
+
+fn uff_data_type(m: MeasuredAs) -> i32 {
+    match m {
+        MeasuredAs::Accelerance => uff::DATA_ACCELERATION,
+        MeasuredAs::Mobility => uff::DATA_VELOCITY,
+        MeasuredAs::Receptance => uff::DATA_DISPLACEMENT,
+    }
+}
+
+/// Reads one measured FRF file (UFF or FRF CSV).
+pub fn read_frf_file(path: &Path, o: &ReadOptions) -> Result<FrfFile> {
+    if is_uff(path) {
+        let funcs = uff::read_uff(path)?;
+        let assumed = o.uff_ordinate.map(uff_data_type);
+        // the quantity the file's FRFs measured (all alike), or the one the caller assumed
+        let kinds: Vec<i32> = funcs
+            .iter()
+            .map(|f| match f.ordinate_axis.data_type {
+                t @ (uff::DATA_DISPLACEMENT | uff::DATA_VELOCITY | uff::DATA_ACCELERATION) => t,
+                _ => assumed.unwrap_or(0),
+            })
+            .collect();
+        let measured_as = if kinds.windows(2).all(|w| w[0] == w[1]) {
+            match kinds.first() {
+                Some(&uff::DATA_ACCELERATION) => Some(MeasuredAs::Accelerance),
+                Some(&uff::DATA_VELOCITY) => Some(MeasuredAs::Mobility),
+                Some(&uff::DATA_DISPLACEMENT) => Some(MeasuredAs::Receptance),
+                _ => None,
+            }
+        } else {
+            None
+        };
+        let sel = uff::UffSelect {
+            response_node: o.uff_resp,
+            reference_node: o.uff_ref,
+            assume_ordinate: assumed,
+        };
+        let frf = uff::frf_from_uff(&funcs, &sel).map_err(|e| {
+            Error::BadInput(format!(
+                "{}: {e} (choose FRFs with --uff-ref N / --uff-resp N; --uff-ordinate \
+                 accel|vel|disp when the file does not say)",
+                path.display()
+            ))
+        })?;
+        Ok(FrfFile {
+            frf,
+            pose: o.pose,
+            measured_as,
+        })
+    } else {
+        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let frf = read::parse_frf_csv(&text, path)?;
+        Ok(FrfFile {
+            frf,
+            pose: pose_comment(&text, path)?.or(o.pose),
+            measured_as: None,
+        })
+    }
+}
+
+/// The pose of an FRF CSV from a comment line `# pose=X,Y,Z`, or `pose=X,Y,Z` as the
+/// last word of a comment line (`# analytic receptance at pose=0.2,0.15,0.05`), if any.
+fn pose_comment(text: &str, path: &Path) -> Result<Option<[f64; 3]>> {
+    for (i, line) in text.lines().enumerate() {
+        let t = line.trim();
+        if !t.starts_with('#') {
+            if t.is_empty() {
+                continue;
+            }
+            break;
+        }
+        let body = t.trim_start_matches('#').trim();
+        let found = body.strip_prefix("pose=").or_else(|| {
+            body.rsplit_once(" pose=")
+                .map(|(_, v)| v)
+                .filter(|v| !v.contains(' '))
+        });
+        if let Some(v) = found {
+            return parse_pose(v)
+                .map(Some)
+                .map_err(|e| Error::bad_file(path, i + 1, None, format!("pose comment: {e}")));
+        }
+    }
+    Ok(None)
+}
+
+/// The format [`write_frf`] chose.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FrfFormat {
+    /// UFF dataset 58 (ASCII).
+    Uff58,
+    /// UFF dataset 58b (binary).
+    Uff58b,
+    /// The FRF CSV of docs/formats.md.
+    Csv,
+}
+
+impl std::fmt::Display for FrfFormat {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            FrfFormat::Uff58 => "UFF dataset 58 (ASCII)",
+            FrfFormat::Uff58b => "UFF dataset 58b (binary)",
+            FrfFormat::Csv => "FRF CSV",
+        })
+    }
+}
+
+/// Writes an FRF by the output's extension: UFF dataset 58 (ASCII) for `.uff`/`.unv`,
+/// 58b (binary) when `binary`, the FRF CSV of docs/formats.md otherwise. Atomic.
+pub fn write_frf(path: &Path, frf: &Frf, binary: bool) -> Result<FrfFormat> {
+    if is_uff(path) {
+        let funcs = uff::uff_from_frf(frf, 1);
+        if binary {
+            uff::write_uff58b(path, &funcs)?;
+            Ok(FrfFormat::Uff58b)
+        } else {
+            uff::write_uff58(path, &funcs)?;
+            Ok(FrfFormat::Uff58)
+        }
+    } else if binary {
+        Err(Error::BadInput(format!(
+            "{}: --uff-binary needs a .uff or .unv output",
+            path.display()
+        )))
+    } else {
+        read::write_frf_csv(path, frf)?;
+        Ok(FrfFormat::Csv)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tmp(name: &str, text: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("mtwin-measured-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join(name);
+        std::fs::write(&p, text).unwrap();
+        p
+    }
+
+    #[test]
+    fn kinds_by_extension_and_header() {
+        let frf = tmp("a.csv", "# pose=0.1,0.2,0.3\n\"f_hz\",xx_re,xx_im\n1,0,0\n");
+        let ts = tmp("b.csv", "t,fx,ax\n0,0,0\n");
+        assert_eq!(InputKind::of(&frf), InputKind::FrfCsv);
+        assert_eq!(InputKind::of(&ts), InputKind::TimeSeries);
+        assert_eq!(InputKind::of(Path::new("x.UNV")), InputKind::Uff);
+        assert!(split_inputs(&[frf.clone(), ts.clone()]).is_err());
+        let (s, f) = split_inputs(&[ts.clone()]).unwrap();
+        assert_eq!((s.len(), f.len()), (1, 0));
+        let text = std::fs::read_to_string(&frf).unwrap();
+        assert_eq!(pose_comment(&text, &frf).unwrap(), Some([0.1, 0.2, 0.3]));
+        let bad = "# analytic receptance at pose=0.2,x,0.05\nf_hz\n";
+        let e = pose_comment(bad, Path::new("c.csv")).unwrap_err();
+        assert!(
+            e.is_bad_input() && e.to_string().starts_with("c.csv:1:"),
+            "{e}"
+        );
+    }
+}
