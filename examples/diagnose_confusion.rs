@@ -15,7 +15,7 @@ use std::time::Instant;
 use vmachine::hidden::{case, milling_case, Case, Effect};
 
 // the base twins, identified as the tests identify them
-#[path = "../identify/tests/hidden_base/mod.rs"]
+#[path = "../identify/tests/common/hidden_base.rs"]
 mod hidden_base;
 
 const CAUSES: [&str; 9] = [

@@ -263,7 +263,7 @@ mod tests {
         assert_eq!(InputKind::of(&ts), InputKind::TimeSeries);
         assert_eq!(InputKind::of(Path::new("x.UNV")), InputKind::Uff);
         assert!(split_inputs(&[frf.clone(), ts.clone()]).is_err());
-        let (s, f) = split_inputs(&[ts.clone()]).unwrap();
+        let (s, f) = split_inputs(std::slice::from_ref(&ts)).unwrap();
         assert_eq!((s.len(), f.len()), (1, 0));
         let text = std::fs::read_to_string(&frf).unwrap();
         assert_eq!(pose_comment(&text, &frf).unwrap(), Some([0.1, 0.2, 0.3]));

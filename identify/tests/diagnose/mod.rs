@@ -1,0 +1,4 @@
+//! Diagnosis of effects hidden in impact and milling data.
+
+mod hidden;
+mod hidden_milling;

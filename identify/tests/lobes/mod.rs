@@ -1,0 +1,4 @@
+//! Stability lobes: zero-order and semi-discretisation.
+
+mod sd;
+mod zoa;

@@ -1,0 +1,3 @@
+//! Lifetime refit from milling data against the truth.
+
+mod truth;

@@ -1,0 +1,3 @@
+//! Simulation of a twin at moving axes against the virtual machine.
+
+mod moving;

@@ -1,0 +1,250 @@
+//! Diagnosis with default options on the second generator (`lumped`: a lumped-mass
+//! bridge mill whose modes, cross coupling and noise come from its structure and sensor
+//! models, not from modal superposition): a one-pose twin from a healthy impact test at
+//! the centre, then the hidden-effect cases there that this twin's band can see. Judged
+//! against the generator's answers. (What it still misses is listed in the README.)
+
+use crate::common::{f64_list, mtwin, s, stderr, tmp};
+use lumped::effects::{case, Effect};
+use lumped::measure::{impact_record, Setup};
+use lumped::structure::{Machine, CENTRE};
+use std::path::{Path, PathBuf};
+
+fn diagnose(twin: &Path, files: &[PathBuf], out: &Path) -> serde_json::Value {
+    let mut args = vec!["diagnose", "-q", "--twin", s(twin)];
+    args.extend(files.iter().map(|p| s(p)));
+    args.extend(["--out", s(out)]);
+    let o = mtwin(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    serde_json::from_str(&std::fs::read_to_string(out.join("diagnosis.json")).expect("json"))
+        .expect("diagnosis json")
+}
+
+#[test]
+fn lumped_one_pose_twin_diagnoses_healthy_disturbance_and_delay() {
+    let dir = tmp();
+    let machine = Machine::nominal();
+    let setup = Setup::impact();
+    let mut healthy = Vec::new();
+    for (a, name) in [(0usize, "x"), (1, "y")] {
+        let p = dir.path().join(format!("imp_{name}.csv"));
+        impact_record(&machine, &setup, CENTRE, a, 5, 2.0, 700 + a as u64)
+            .write_csv(&p)
+            .expect("write");
+        healthy.push(p);
+    }
+    let twin = dir.path().join("twin.json");
+    let mut args = vec!["identify", "-q"];
+    args.extend(healthy.iter().map(|p| s(p)));
+    args.extend(["--out", s(&twin)]);
+    let o = mtwin(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+
+    // its own healthy hits: nothing to report
+    let d = diagnose(&twin, &healthy, &dir.path().join("self"));
+    assert_eq!(d["cause"], "none", "{d}");
+
+    // seed 2's outside vibration: two milling records whose tones have different phases
+    // (the held-out check fits each record's phase on its own building part)
+    for (effect, seed) in [
+        (Effect::Healthy, 1),
+        (Effect::Disturbance, 1),
+        (Effect::TimeDelay, 1),
+        (Effect::Disturbance, 2),
+    ] {
+        let c = case(&machine, effect, seed);
+        let files: Vec<PathBuf> = c
+            .records
+            .iter()
+            .map(|(name, r)| {
+                let p = dir.path().join(format!("{effect:?}{seed}_{name}"));
+                r.write_csv(&p).expect("write");
+                p
+            })
+            .collect();
+        let d = diagnose(&twin, &files, &dir.path().join(format!("{effect:?}{seed}")));
+        let want = c.answer["cause"].as_str().unwrap_or("?");
+        eprintln!("{effect:?}: {} (want {want}) {}", d["cause"], d["details"]);
+        assert_eq!(d["cause"], want, "{d}");
+        let det = &d["details"];
+        let truth = &c.answer["details"];
+        match effect {
+            Effect::Disturbance => {
+                let found = f64_list(&det["freq_hz"]);
+                let want = f64_list(&truth["freq_hz"]);
+                assert_eq!(found.len(), want.len(), "{found:?} vs {want:?}");
+                for f in &want {
+                    assert!(
+                        found.iter().any(|g| (g / f - 1.0).abs() < 0.01),
+                        "{found:?} vs {want:?}"
+                    );
+                }
+                assert!(d["fit_after_pct"].as_f64() > d["fit_before_pct"].as_f64());
+            }
+            Effect::TimeDelay => {
+                let (got, want) = (
+                    det["delay_s"].as_f64().unwrap_or(f64::NAN),
+                    truth["delay_s"].as_f64().unwrap_or(f64::NAN),
+                );
+                assert!((got / want - 1.0).abs() < 0.1, "delay {got} vs {want}");
+            }
+            _ => {}
+        }
+    }
+}
+
+/// Fit [%] of `twin` at `pose` against the generator's receptance with the campaign's
+/// accelerometer mass, channel out/in, on `band`.
+fn twin_vs_loaded_truth(
+    twin: &identify::twin::Twin,
+    machine: &Machine,
+    pose: [f64; 3],
+    (out, inp): (usize, usize),
+    band: (f64, f64),
+    tip_mass: f64,
+) -> f64 {
+    use identify::axis::{Axis, Channel};
+    let freqs = lumped::frf::linspace(band.0, band.1, 600);
+    let truth = machine.analytic_frf_loaded(pose, &freqs, tip_mass);
+    let m = twin.model_at(pose).expect("model at pose");
+    let ax = |i: usize| [Axis::X, Axis::Y, Axis::Z][i];
+    let ci = m
+        .channel_index(Channel {
+            output: ax(out),
+            input: ax(inp),
+        })
+        .expect("channel in the twin");
+    let t = truth.channel(out, inp);
+    let e: Vec<_> = freqs.iter().map(|&f| m.eval_hz(ci, f)).collect();
+    identify::frf::fit_percent(&t, &e)
+}
+
+/// An 18-pose impact campaign on the lumped mill (3x3x2 grid, hammer along x and along
+/// y, accelerations, cross channels without coherent response), identified with the
+/// defaults, judged at the measured and at three unmeasured poses against the analytic
+/// receptance (xx, yy, 150-2500 Hz: below, the accelerometer's noise hides the
+/// response). The x and y directions do not couple: identify must fit and track them
+/// apart (with common poles the measured poses fell to 74 % worst, 86 % mean).
+#[test]
+fn lumped_campaign_twin_fits_the_truth_at_measured_and_unmeasured_poses() {
+    use rayon::prelude::*;
+    let dir = tmp();
+    let machine = Machine::nominal();
+    let setup = Setup::impact();
+    let mut grid = Vec::new();
+    for x in [0.1, 0.4, 0.7] {
+        for y in [0.1, 0.3, 0.5] {
+            for z in [0.05, 0.25] {
+                grid.push([x, y, z]);
+            }
+        }
+    }
+    let jobs: Vec<(usize, usize)> = (0..grid.len()).flat_map(|k| [(k, 0), (k, 1)]).collect();
+    let files: Vec<PathBuf> = jobs
+        .par_iter()
+        .map(|&(k, a)| {
+            let p = dir.path().join(format!("g{k:02}_{}.csv", ["x", "y"][a]));
+            impact_record(
+                &machine,
+                &setup,
+                grid[k],
+                a,
+                5,
+                2.0,
+                1000 + 2 * k as u64 + a as u64,
+            )
+            .write_csv(&p)
+            .expect("write");
+            p
+        })
+        .collect();
+    let twin_path = dir.path().join("twin.json");
+    let mut args = vec!["identify"];
+    args.extend(files.iter().map(|p| s(p)));
+    args.extend(["--out", s(&twin_path)]);
+    let o = mtwin(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout).to_string() + &stderr(&o);
+    assert!(
+        text.contains("fitted with separate poles"),
+        "the plan names the split of the force directions:\n{text}"
+    );
+    let twin = identify::twin::Twin::load(&twin_path).expect("twin loads");
+    let band = (150.0, 2500.0);
+    let score = |p: [f64; 3]| {
+        [(0, 0), (1, 1)]
+            .iter()
+            .map(|&c| twin_vs_loaded_truth(&twin, &machine, p, c, band, setup.tip_mass))
+            .fold(f64::INFINITY, f64::min)
+    };
+    let measured: Vec<f64> = grid.iter().map(|&p| score(p)).collect();
+    let unmeasured: Vec<f64> = [[0.25, 0.2, 0.15], [0.55, 0.45, 0.1], [0.6, 0.15, 0.2]]
+        .iter()
+        .map(|&p| score(p))
+        .collect();
+    let mean = measured.iter().sum::<f64>() / measured.len() as f64;
+    let worst = measured.iter().cloned().fold(f64::INFINITY, f64::min);
+    let u_worst = unmeasured.iter().cloned().fold(f64::INFINITY, f64::min);
+    eprintln!(
+        "lumped campaign vs truth: measured worst {worst:.2} mean {mean:.2} %, unmeasured {unmeasured:.2?}"
+    );
+    assert!(mean >= 90.0, "measured mean {mean:.2} % ({measured:.1?})");
+    assert!(
+        worst >= 80.0,
+        "measured worst {worst:.2} % ({measured:.1?})"
+    );
+    assert!(u_worst >= 75.0, "unmeasured {unmeasured:.2?}");
+}
+
+/// A logarithmic sweep 20-2500 Hz along x at the centre (displacement sensor, 8 s then
+/// 1.5 s at rest), identified with the defaults: the twin's xx must fit the analytic
+/// receptance (30-2400 Hz) at least as well as the raw full-record ratio FFT(dx)/FFT(fx)
+/// of the same file does. One record has no averages: its coherence comes from the
+/// FRF's line-to-line scatter, which also leaves the noise-only yx channel out (before:
+/// band cut at 1.7 kHz, yx fitted, 20.8 % vs truth).
+#[test]
+fn lumped_log_sweep_twin_beats_the_raw_ratio_of_its_record() {
+    use num_complex::Complex64;
+    let dir = tmp();
+    let machine = Machine::nominal();
+    let rec = lumped::measure::log_sweep_record(&machine, CENTRE, 1500);
+    let path = dir.path().join("sweep.csv");
+    rec.write_csv(&path).expect("write");
+    let twin_path = dir.path().join("twin.json");
+    let o = mtwin(&["identify", s(&path), "--out", s(&twin_path)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout).to_string() + &stderr(&o);
+    assert!(text.contains("line-to-line scatter"), "{text}");
+    let twin = identify::twin::Twin::load(&twin_path).expect("twin");
+    let band = (30.0, 2400.0);
+    let fit_twin = twin_vs_loaded_truth(&twin, &machine, CENTRE, (0, 0), band, 0.0);
+    // the raw ratio of the record, read back as mtwin reads it
+    let ts = identify::read::read_timeseries(&path).expect("read");
+    let fx = ts.force(identify::axis::Axis::X).expect("fx").to_vec();
+    let dx = ts.response(identify::axis::Axis::X).expect("dx").to_vec();
+    let n = fx.len();
+    let mut planner = rustfft::FftPlanner::<f64>::new();
+    let fft = planner.plan_fft_forward(n);
+    let spec = |v: &[f64]| {
+        let mut b: Vec<Complex64> = v.iter().map(|&x| Complex64::new(x, 0.0)).collect();
+        fft.process(&mut b);
+        b
+    };
+    let (fxs, dxs) = (spec(&fx), spec(&dx));
+    let dt = ts.dt;
+    let (mut freqs, mut ratio) = (Vec::new(), Vec::new());
+    for k in 1..n / 2 {
+        let fk = k as f64 / (n as f64 * dt);
+        if fk >= band.0 && fk <= band.1 {
+            freqs.push(fk);
+            ratio.push(dxs[k] / fxs[k]);
+        }
+    }
+    let truth = machine.analytic_frf(CENTRE, &freqs).channel(0, 0);
+    let fit_raw = identify::frf::fit_percent(&truth, &ratio);
+    eprintln!("lumped log sweep xx vs truth: twin {fit_twin:.2} %, raw ratio {fit_raw:.2} %");
+    assert!(
+        fit_twin >= fit_raw,
+        "twin {fit_twin:.2} % below the raw ratio {fit_raw:.2} %"
+    );
+}
