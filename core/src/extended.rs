@@ -9,7 +9,7 @@
 //! for excitation along one axis (impact tests) and an approximation otherwise.
 
 use crate::interpolate::{simulate_twin, TwinEvaluator};
-use crate::simulate::{Hold, Simulator};
+use crate::simulate::Hold;
 use crate::twin::Twin;
 use std::f64::consts::PI;
 
@@ -120,6 +120,7 @@ fn delay(y: &[[f64; 3]], shift: f64) -> Vec<[f64; 3]> {
         .collect()
 }
 
+/// The twin's simulation with the cubic modal stiffnesses of `cubic` summed per mode.
 fn simulate_cubic(
     ev: &mut TwinEvaluator,
     forces: &[[f64; 3]],
@@ -128,50 +129,10 @@ fn simulate_cubic(
     hold: Hold,
     cubic: &[crate::twin::CubicStiffness],
 ) -> Vec<[f64; 3]> {
-    if hold == Hold::BandLimited {
-        return crate::simulate::run_band_limited(forces, dt, |f, h, coarse, every| {
-            simulate_cubic_dyn(
-                ev,
-                f,
-                &|m| pose_at(coarse(m)),
-                h,
-                Hold::BandLimited,
-                cubic,
-                every,
-            )
-        });
-    }
-    simulate_cubic_dyn(ev, forces, pose_at, dt, hold, cubic, 1)
-}
-
-/// The response at samples `0, every, 2·every, …` of a simulation over all `forces`.
-fn simulate_cubic_dyn(
-    ev: &mut TwinEvaluator,
-    forces: &[[f64; 3]],
-    pose_at: &dyn Fn(usize) -> [f64; 3],
-    dt: f64,
-    hold: Hold,
-    cubic: &[crate::twin::CubicStiffness],
-    every: usize,
-) -> Vec<[f64; 3]> {
-    let nm = ev.n_modes();
-    let kappa: Vec<f64> = (0..nm)
+    let kappa: Vec<f64> = (0..ev.n_modes())
         .map(|k| cubic.iter().filter(|c| c.mode == k).map(|c| c.kappa).sum())
         .collect();
-    let mut sim = Simulator::new(nm, hold);
-    sim.set_cubic(&kappa);
-    let mut out = Vec::with_capacity(forces.len().div_ceil(every));
-    if forces.is_empty() {
-        return out;
-    }
-    out.push(sim.output(ev.model_at(pose_at(0)), &forces[0]));
-    for i in 1..forces.len() {
-        sim.step(ev.model_at(pose_at(i - 1)), &forces[i - 1], &forces[i], dt);
-        if i % every == 0 {
-            out.push(sim.output(ev.model_at(pose_at(i)), &forces[i]));
-        }
-    }
-    out
+    crate::interpolate::simulate_twin_cubic(ev, forces, pose_at, dt, hold, &kappa)
 }
 
 #[cfg(test)]

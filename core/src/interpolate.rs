@@ -45,6 +45,19 @@ pub fn simulate_twin(
     dt: f64,
     hold: crate::simulate::Hold,
 ) -> Vec<[f64; 3]> {
+    simulate_twin_cubic(ev, forces, &pose_at, dt, hold, &[])
+}
+
+/// [`simulate_twin`] with a cubic modal stiffness `kappa[k]` per mode (empty: none; see
+/// [`crate::simulate::Simulator::set_cubic`]).
+pub fn simulate_twin_cubic(
+    ev: &mut TwinEvaluator,
+    forces: &[[f64; 3]],
+    pose_at: &dyn Fn(usize) -> [f64; 3],
+    dt: f64,
+    hold: crate::simulate::Hold,
+    kappa: &[f64],
+) -> Vec<[f64; 3]> {
     if hold == crate::simulate::Hold::BandLimited {
         return crate::simulate::run_band_limited(forces, dt, |f, h, coarse, every| {
             simulate_twin_dyn(
@@ -53,11 +66,12 @@ pub fn simulate_twin(
                 &|m| pose_at(coarse(m)),
                 h,
                 crate::simulate::Hold::BandLimited,
+                kappa,
                 every,
             )
         });
     }
-    simulate_twin_dyn(ev, forces, &pose_at, dt, hold, 1)
+    simulate_twin_dyn(ev, forces, pose_at, dt, hold, kappa, 1)
 }
 
 /// The response at samples `0, every, 2·every, …` of a simulation over all `forces`.
@@ -67,6 +81,7 @@ fn simulate_twin_dyn(
     pose_at: &dyn Fn(usize) -> [f64; 3],
     dt: f64,
     hold: crate::simulate::Hold,
+    kappa: &[f64],
     every: usize,
 ) -> Vec<[f64; 3]> {
     let mut out = Vec::with_capacity(forces.len().div_ceil(every));
@@ -74,6 +89,9 @@ fn simulate_twin_dyn(
         return out;
     }
     let mut sim = crate::simulate::Simulator::new(ev.n_modes(), hold);
+    if !kappa.is_empty() {
+        sim.set_cubic(kappa);
+    }
     out.push(sim.output(ev.model_at(pose_at(0)), &forces[0]));
     for i in 1..forces.len() {
         sim.step(ev.model_at(pose_at(i - 1)), &forces[i - 1], &forces[i], dt);
