@@ -58,48 +58,31 @@ pub fn simulate_twin_cubic(
     hold: crate::simulate::Hold,
     kappa: &[f64],
 ) -> Vec<[f64; 3]> {
+    // the response at samples `0, every, 2·every, …` of a simulation over all `f`
+    let mut run = |f: &[[f64; 3]], at: &dyn Fn(usize) -> [f64; 3], h: f64, every: usize| {
+        let mut out = Vec::with_capacity(f.len().div_ceil(every));
+        if f.is_empty() {
+            return out;
+        }
+        let mut sim = crate::simulate::Simulator::new(ev.n_modes(), hold);
+        if !kappa.is_empty() {
+            sim.set_cubic(kappa);
+        }
+        out.push(sim.output(ev.model_at(at(0)), &f[0]));
+        for i in 1..f.len() {
+            sim.step(ev.model_at(at(i - 1)), &f[i - 1], &f[i], h);
+            if i % every == 0 {
+                out.push(sim.output(ev.model_at(at(i)), &f[i]));
+            }
+        }
+        out
+    };
     if hold == crate::simulate::Hold::BandLimited {
         return crate::simulate::run_band_limited(forces, dt, |f, h, coarse, every| {
-            simulate_twin_dyn(
-                ev,
-                f,
-                &|m| pose_at(coarse(m)),
-                h,
-                crate::simulate::Hold::BandLimited,
-                kappa,
-                every,
-            )
+            run(f, &|m| pose_at(coarse(m)), h, every)
         });
     }
-    simulate_twin_dyn(ev, forces, pose_at, dt, hold, kappa, 1)
-}
-
-/// The response at samples `0, every, 2·every, …` of a simulation over all `forces`.
-fn simulate_twin_dyn(
-    ev: &mut TwinEvaluator,
-    forces: &[[f64; 3]],
-    pose_at: &dyn Fn(usize) -> [f64; 3],
-    dt: f64,
-    hold: crate::simulate::Hold,
-    kappa: &[f64],
-    every: usize,
-) -> Vec<[f64; 3]> {
-    let mut out = Vec::with_capacity(forces.len().div_ceil(every));
-    if forces.is_empty() {
-        return out;
-    }
-    let mut sim = crate::simulate::Simulator::new(ev.n_modes(), hold);
-    if !kappa.is_empty() {
-        sim.set_cubic(kappa);
-    }
-    out.push(sim.output(ev.model_at(pose_at(0)), &forces[0]));
-    for i in 1..forces.len() {
-        sim.step(ev.model_at(pose_at(i - 1)), &forces[i - 1], &forces[i], dt);
-        if i % every == 0 {
-            out.push(sim.output(ev.model_at(pose_at(i)), &forces[i]));
-        }
-    }
-    out
+    run(forces, pose_at, dt, 1)
 }
 
 /// Which interpolation scheme a twin uses.

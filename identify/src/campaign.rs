@@ -901,6 +901,23 @@ struct Finished {
     refused_freeze: bool,
 }
 
+/// Modes tracked across the poses of `fits` (by frequency and shape, then by smooth
+/// trends), coincident modes split again, and residual poles pooled: the notes for
+/// every pose's plan, and whether a frozen common pole set was refused.
+fn track_across_poses(
+    fits: &mut [PoseFit],
+    freeze: Freeze,
+    warnings: &mut Vec<String>,
+) -> Result<(Vec<String>, bool)> {
+    let own: Vec<ModalModel> = fits.iter().map(|f| f.model.clone()).collect();
+    warnings.extend(track_modes(fits)?);
+    let mut notes = assign_by_trends(fits, &own);
+    warnings.extend(resplit_coincident_modes(fits));
+    let (pooled, refused) = common_residual_poles(fits, freeze)?;
+    notes.extend(pooled);
+    Ok((notes, refused))
+}
+
 /// Tracking, mode assignment, residual poles and the twin, from the pose fits.
 fn finish_campaign(
     mut fits: Vec<PoseFit>,
@@ -937,14 +954,7 @@ fn finish_campaign(
                     ..f.clone()
                 })
                 .collect();
-            let own: Vec<ModalModel> = sub.iter().map(|f| f.model.clone()).collect();
-            warnings.extend(track_modes(&mut sub)?);
-            let notes = assign_by_trends(&mut sub, &own);
-            for f in fits.iter_mut() {
-                f.plan.alternatives.extend(notes.iter().cloned());
-            }
-            warnings.extend(resplit_coincident_modes(&mut sub));
-            let (notes, refused) = common_residual_poles(&mut sub, freeze)?;
+            let (notes, refused) = track_across_poses(&mut sub, freeze, &mut warnings)?;
             refused_freeze |= refused;
             for f in fits.iter_mut() {
                 f.plan.alternatives.extend(notes.iter().cloned());
@@ -958,14 +968,7 @@ fn finish_campaign(
             f.order.modes = f.model.modes.len();
         }
     } else if fits.len() > 1 {
-        let own: Vec<ModalModel> = fits.iter().map(|f| f.model.clone()).collect();
-        warnings.extend(track_modes(&mut fits)?);
-        let notes = assign_by_trends(&mut fits, &own);
-        for f in fits.iter_mut() {
-            f.plan.alternatives.extend(notes.iter().cloned());
-        }
-        warnings.extend(resplit_coincident_modes(&mut fits));
-        let (notes, refused) = common_residual_poles(&mut fits, freeze)?;
+        let (notes, refused) = track_across_poses(&mut fits, freeze, &mut warnings)?;
         refused_freeze |= refused;
         for f in fits.iter_mut() {
             f.plan.alternatives.extend(notes.iter().cloned());
