@@ -163,8 +163,8 @@ impl Demo<'_> {
                 files: files.to_vec(),
                 out: twin_path.clone(),
                 order: None,
-                fmin: Some(30.0),
-                fmax: Some(2500.0),
+                fmin: None,
+                fmax: None,
                 estimator: "h1".into(),
                 excitation: "auto".into(),
                 pose_tol: 1e-3,
@@ -445,7 +445,7 @@ impl Demo<'_> {
         <li><a href=\"refit.html\">refit.html</a> — drift check, operating FRF vs the twin before and after, responses, history</li>\
         <li><a href=\"diagnosis/report.html\">diagnosis/report.html</a> and <code>diagnosis/diagnosis.json</code></li>\
         <li><code>twin.json</code>, <code>twin_refit.json</code> (with history), <code>twin.fmu</code>, <code>twin_refit.fmu</code></li>\
-        <li><code>data/</code> — every generated CSV: rerun any step by hand, e.g. <code>mtwin identify data/campaign/*.csv --fmin 30 --fmax 2500 --out t.json</code></li>\
+        <li><code>data/</code> — every generated CSV: rerun any step by hand, e.g. <code>mtwin identify data/campaign/*.csv --out t.json</code></li>\
         </ul><h2>Stability lobes (3 teeth, half immersion, Kt 600 N/mm²)</h2>\
         <p>The zero-order method (Altintas–Budak) and the semi-discretisation (Insperger–Stépán) \
         at the same speeds; a cut is stable below both lines (shaded). The sharp peaks are the \
