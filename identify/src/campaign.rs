@@ -534,6 +534,8 @@ impl MeasuredFrf {
         MeasuredFrf {
             facts: EstimateFacts {
                 measured_as: file.measured_as,
+                method: "not known (measured FRFs given, no time series to recognise it from)"
+                    .into(),
                 ..Default::default()
             },
             pose: file.pose.unwrap_or([0.0; 3]),
