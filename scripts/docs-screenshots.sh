@@ -33,7 +33,7 @@ shot "$demo/identify.html" identify 7200
 shot "$work/identify_reim.html" reim 5200
 shot "$demo/refit.html" refit 5400
 shot "$demo/diagnosis/report.html" diagnosis 1400
-shot "$demo/lobes_before.svg" lobes 430 920
+shot "$demo/lobes_before.svg" lobes 440 920
 shot "$demo/index.html" index 1000
 shot "$work/frf.html" frf 760
 img=$root/docs/img
@@ -51,6 +51,6 @@ cut identify 1100x430+0+6620 identify-stabilization
 cut refit 1100x1250+0+0 refit
 cut refit 1100x760+0+4470 refit-history
 cut diagnosis 1100x1300+0+0 diagnosis
-cut lobes 920x430+0+0 lobes
+cut lobes 920x440+0+0 lobes
 cut index 1100x1000+0+0 demo-index
 cut frf 1100x760+0+0 frf

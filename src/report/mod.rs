@@ -312,6 +312,93 @@ struct Place<'a> {
     bottom: bool,
     xlog: bool,
     ylog: bool,
+    /// The figure draws the legend under the plot (not inside it, over the data).
+    legend_below: bool,
+}
+
+/// A polyline with breaks (`None`) cut to the y range `[lo, hi]`: each segment that
+/// leaves the range ends at the frame (found on the axes' own scales, so the cut point
+/// lies on the drawn segment) and the line resumes where it comes back; a line never
+/// runs flat along the frame as if the data were there.
+fn clip_to_y(
+    pts: &[Option<(f64, f64)>],
+    (lo, hi): (f64, f64),
+    xlog: bool,
+    ylog: bool,
+) -> Vec<Vec<(f64, f64)>> {
+    let fwd = |v: f64, log: bool| if log { v.ln() } else { v };
+    let back = |v: f64, log: bool| if log { v.exp() } else { v };
+    let (tlo, thi) = (fwd(lo, ylog), fwd(hi, ylog));
+    let mut runs: Vec<Vec<(f64, f64)>> = vec![Vec::new()];
+    let push = |runs: &mut Vec<Vec<(f64, f64)>>, p: (f64, f64)| {
+        if let Some(r) = runs.last_mut() {
+            if r.last() != Some(&p) {
+                r.push(p);
+            }
+        }
+    };
+    let brk = |runs: &mut Vec<Vec<(f64, f64)>>| {
+        if runs.last().is_some_and(|r| !r.is_empty()) {
+            runs.push(Vec::new());
+        }
+    };
+    let mut prev: Option<(f64, f64)> = None;
+    for p in pts {
+        let Some((x1, y1)) = *p else {
+            brk(&mut runs);
+            prev = None;
+            continue;
+        };
+        let (tx1, ty1) = (fwd(x1, xlog), fwd(y1, ylog));
+        match prev {
+            None => {
+                if (tlo..=thi).contains(&ty1) {
+                    push(&mut runs, (x1, y1));
+                }
+            }
+            Some((tx0, ty0)) => {
+                // the part of the segment inside [tlo, thi] (Liang–Barsky in y)
+                let (mut t0, mut t1) = (0.0f64, 1.0f64);
+                let dy = ty1 - ty0;
+                let mut inside = true;
+                for (q, r) in [(-dy, ty0 - tlo), (dy, thi - ty0)] {
+                    if q == 0.0 {
+                        if r < 0.0 {
+                            inside = false;
+                        }
+                    } else {
+                        let t = r / q;
+                        if q < 0.0 {
+                            t0 = t0.max(t);
+                        } else {
+                            t1 = t1.min(t);
+                        }
+                    }
+                }
+                if inside && t0 <= t1 {
+                    let at = |t: f64| {
+                        (
+                            back(tx0 + t * (tx1 - tx0), xlog),
+                            back(ty0 + t * dy, ylog).clamp(lo, hi),
+                        )
+                    };
+                    if t0 > 0.0 {
+                        brk(&mut runs);
+                    }
+                    push(&mut runs, at(t0));
+                    push(&mut runs, if t1 < 1.0 { at(t1) } else { (x1, y1) });
+                    if t1 < 1.0 {
+                        brk(&mut runs);
+                    }
+                } else {
+                    brk(&mut runs);
+                }
+            }
+        }
+        prev = Some((tx1, ty1));
+    }
+    runs.retain(|r| !r.is_empty());
+    runs
 }
 
 fn draw_panel<'b, X, Y>(area: &Area<'b>, xr: X, yr: Y, panel: &Panel<'_>, place: Place<'_>)
@@ -325,6 +412,7 @@ where
         bottom,
         xlog,
         ylog,
+        legend_below,
     } = place;
     let (ylo, yhi) = (yr.range().start, yr.range().end);
     let xr_span = xr.range().end - xr.range().start;
@@ -372,7 +460,7 @@ where
         if let (Some(first), Some(last)) = (pts.first().copied(), pts.last().copied()) {
             pts.push((last.0, ylo));
             pts.push((first.0, ylo));
-            let c = RGBColor(200, 235, 200);
+            let c = SHADE;
             let _ = chart
                 .draw_series(std::iter::once(Polygon::new(pts, c.filled())))
                 .map(|a| {
@@ -400,17 +488,14 @@ where
                 });
             }
         } else {
-            // a break in the data (a NaN or a value off a log axis) breaks the line
-            let mut runs: Vec<Vec<(f64, f64)>> = vec![Vec::new()];
-            for (x, y) in s.x.iter().zip(s.y) {
-                if x.is_finite() && ok(*y) {
-                    if let Some(r) = runs.last_mut() {
-                        r.push((*x, y.clamp(ylo, yhi)));
-                    }
-                } else if runs.last().is_some_and(|r| !r.is_empty()) {
-                    runs.push(Vec::new());
-                }
-            }
+            // a break in the data (a NaN or a value off a log axis) breaks the line; a
+            // line that leaves the y range is cut at the frame
+            let pts: Vec<Option<(f64, f64)>> =
+                s.x.iter()
+                    .zip(s.y)
+                    .map(|(x, y)| (x.is_finite() && ok(*y)).then_some((*x, *y)))
+                    .collect();
+            let runs = clip_to_y(&pts, (ylo, yhi), xlog, ylog);
             let mut first = true;
             for run in runs.into_iter().filter(|r| !r.is_empty()) {
                 let drawn = chart.draw_series(LineSeries::new(run, c.stroke_width(1)));
@@ -425,7 +510,8 @@ where
             }
         }
     }
-    if panel.series.iter().any(|s| !s.label.is_empty()) || panel.shade.is_some() {
+    if !legend_below && (panel.series.iter().any(|s| !s.label.is_empty()) || panel.shade.is_some())
+    {
         let _ = chart
             .configure_series_labels()
             .position(panel.legend.clone())
@@ -463,6 +549,47 @@ where
 
 /// An SVG figure: panels over a shared x axis (linear or log), engineering tick labels.
 pub fn figure(f: &Figure<'_>) -> String {
+    draw_figure(f, false)
+}
+
+/// [`figure`] with the legend in a row under the plot instead of inside a panel, where it
+/// would cover data (for a standalone SVG, which has no HTML legend beside it).
+pub fn figure_legend_below(f: &Figure<'_>) -> String {
+    draw_figure(f, true)
+}
+
+/// The legend entries of a figure's panels: shading first, then the labelled lines.
+fn legend_entries<'a>(f: &'a Figure<'a>) -> Vec<(&'a str, LegendMark)> {
+    let mut out = Vec::new();
+    for p in f.panels {
+        if let Some((_, _, label)) = p.shade {
+            out.push((label, LegendMark::Shade));
+        }
+        for s in p.series.iter().filter(|s| !s.label.is_empty()) {
+            out.push((
+                s.label,
+                if s.points {
+                    LegendMark::Dot(s.color)
+                } else {
+                    LegendMark::Line(s.color)
+                },
+            ));
+        }
+    }
+    out
+}
+
+#[derive(Clone, Copy)]
+enum LegendMark {
+    Shade,
+    Line(usize),
+    Dot(usize),
+}
+
+/// The shading colour of a panel's region.
+const SHADE: RGBColor = RGBColor(200, 235, 200);
+
+fn draw_figure(f: &Figure<'_>, legend_below: bool) -> String {
     let Some(xr) = f.xrange.or_else(|| {
         data_range(
             f.panels
@@ -478,7 +605,13 @@ pub fn figure(f: &Figure<'_>) -> String {
     } else {
         padded(xr, f.xscale)
     };
-    let height: u32 = f.panels.iter().map(|p| p.height).sum::<u32>() + 30;
+    let entries = if legend_below {
+        legend_entries(f)
+    } else {
+        Vec::new()
+    };
+    let legend_h: u32 = if entries.is_empty() { 0 } else { 26 };
+    let height: u32 = f.panels.iter().map(|p| p.height).sum::<u32>() + 30 + legend_h;
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, (f.width, height)).into_drawing_area();
@@ -502,6 +635,7 @@ pub fn figure(f: &Figure<'_>) -> String {
                 bottom,
                 xlog: f.xscale == Scale::Log,
                 ylog: p.yscale == Scale::Log,
+                legend_below,
             };
             match f.xscale {
                 Scale::Log => {
@@ -513,6 +647,33 @@ pub fn figure(f: &Figure<'_>) -> String {
                     panel_with_y(&area, xr, yr, p, place)
                 }
                 _ => panel_with_y(&area, RangedCoordf64::from(xr.0..xr.1), yr, p, place),
+            }
+        }
+        if !entries.is_empty() {
+            // one row under the x label, left to right (14 px sans-serif: ~7 px a letter)
+            let y = (height - legend_h / 2) as i32;
+            let mut x = 80i32;
+            for (label, mark) in &entries {
+                match *mark {
+                    LegendMark::Shade => {
+                        let _ = root.draw(&Rectangle::new(
+                            [(x, y - 6), (x + 20, y + 6)],
+                            SHADE.filled(),
+                        ));
+                    }
+                    LegendMark::Line(c) => {
+                        let _ = root.draw(&PathElement::new(
+                            vec![(x, y), (x + 20, y)],
+                            color(c).stroke_width(2),
+                        ));
+                    }
+                    LegendMark::Dot(c) => {
+                        let _ = root.draw(&Circle::new((x + 10, y), 3, color(c).filled()));
+                    }
+                }
+                let style = ("sans-serif", 14).into_font().color(&BLACK);
+                let _ = root.draw(&Text::new(label.to_string(), (x + 26, y - 8), style));
+                x += 26 + (label.chars().count() as f64 * 6.8) as i32 + 28;
             }
         }
         let _ = root.present();
@@ -959,7 +1120,7 @@ pub fn page(title: &str, body: &str) -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::eng;
+    use super::{clip_to_y, eng};
 
     #[test]
     fn engineering_ticks_read_as_written() {
@@ -1034,6 +1195,48 @@ mod tests {
         assert_eq!(x.len(), 5);
         assert!(y[2].is_nan() && x[2] == 2.5, "{x:?} {y:?}");
         assert_eq!(y[3], 178.0);
+    }
+
+    #[test]
+    fn a_line_leaving_the_range_is_cut_at_the_frame() {
+        let p = |x: f64, y: f64| Some((x, y));
+        // up through the top at x = 1.5, back in at x = 3.5: two runs, cut at y = 10
+        let runs = clip_to_y(
+            &[
+                p(0.0, 0.0),
+                p(1.0, 5.0),
+                p(2.0, 15.0),
+                p(3.0, 15.0),
+                p(4.0, 5.0),
+            ],
+            (0.0, 10.0),
+            false,
+            false,
+        );
+        assert_eq!(
+            runs,
+            vec![
+                vec![(0.0, 0.0), (1.0, 5.0), (1.5, 10.0)],
+                vec![(3.5, 10.0), (4.0, 5.0)]
+            ]
+        );
+        // a break stays a break; a point alone above the range draws nothing
+        let runs = clip_to_y(
+            &[p(0.0, 1.0), None, p(1.0, 20.0)],
+            (0.0, 10.0),
+            false,
+            false,
+        );
+        assert_eq!(runs, vec![vec![(0.0, 1.0)]]);
+        // on a log y axis the cut lies on the drawn (straight in log) segment: 1 -> 100
+        // leaves a range up to 10 half way
+        let runs = clip_to_y(&[p(0.0, 1.0), p(2.0, 100.0)], (0.5, 10.0), false, true);
+        assert_eq!(runs.len(), 1);
+        let (x, y) = runs[0][1];
+        assert!(
+            (x - 1.0).abs() < 1e-12 && (y - 10.0).abs() < 1e-9,
+            "{runs:?}"
+        );
     }
 
     #[test]
