@@ -1159,12 +1159,12 @@ fn push_history(
     }
     let summary = if report.updated {
         format!(
-            "{:?} refit at pose {}: simulated-response fit {:.2} % -> {:.2} %, {} modes changed",
+            "{:?} refit at pose {}: simulated-response fit {:.2} % -> {:.2} %, {} changed",
             opts.method,
             crate::axis::PoseText(pose),
             report.drift_fit_pct,
             report.fit_after_pct,
-            report.modes.len()
+            crate::axis::count(report.modes.len(), "mode")
         )
     } else {
         format!(

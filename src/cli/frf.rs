@@ -276,13 +276,19 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
         chans.push(serde_json::json!({"channel": c.channel.name(), "mean_coherence": mean_coh}));
     }
     let unit = AverageUnit::of(&est.method);
+    // the method names the estimator, the line spacing and (impact) the hits averaged:
+    // said once, then what it leaves out
+    let tail = if unit == AverageUnit::Hit {
+        match est.hits_dropped.len() {
+            0 => "no hit dropped".to_string(),
+            n => format!("{} dropped", identify::axis::count(n, "hit")),
+        }
+    } else {
+        format!("{} used", unit.count(est.hits_used))
+    };
     out.say(format!(
-        "{} ({}, Δf = {:.3} Hz, {} used, {} dropped) -> {} ({format})",
+        "{}; {tail} -> {} ({format})",
         est.method,
-        a.estimator.to_uppercase(),
-        est.df_hz,
-        unit.count(est.hits_used),
-        est.hits_dropped.len(),
         a.out.display()
     ));
     if let Some(r) = &a.report {

@@ -3,6 +3,7 @@
 use super::{check_output_not_input, parse_pose, BadInput, Output};
 use crate::report::{self, Scale, Series};
 use anyhow::Result;
+use identify::axis::count;
 use identify::interpolate::TwinEvaluator;
 use identify::lobes::{
     lobes_sd, lobes_zoa, log_speeds, with_rigid_tool_tip, write_lobes_csv, Cut, LobePoint,
@@ -126,23 +127,23 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
     let min_zoa = zoa.iter().map(|p| p.ap_lim_m).fold(f64::INFINITY, f64::min);
     let min_sd = sd.iter().map(|p| p.ap_lim_m).fold(f64::INFINITY, f64::min);
     out.say(format!(
-        "lobes at {}, {} teeth, ae/D {}, Kt {:.3e} N/m², Kr {}: \
-         minimum stable depth ZOA {:.3} mm ({} speeds, {:.0} ms){}",
+        "lobes at {}, {}, ae/D {}, Kt {:.3e} N/m², Kr {}: \
+         minimum stable depth ZOA {:.3} mm ({}, {:.0} ms){}",
         identify::axis::PoseText(a.at),
-        a.cut.teeth,
+        count(a.cut.teeth, "tooth"),
         a.cut.immersion,
         a.cut.kt,
         a.cut.kr,
         min_zoa * 1e3,
-        zoa.len(),
+        count(zoa.len(), "speed"),
         t_zoa.as_secs_f64() * 1e3,
         if sd.is_empty() {
             String::new()
         } else {
             format!(
-                ", semi-discretisation {:.3} mm ({} speeds, {:.2} s)",
+                ", semi-discretisation {:.3} mm ({}, {:.2} s)",
                 min_sd * 1e3,
-                sd.len(),
+                count(sd.len(), "speed"),
                 t_sd.as_secs_f64()
             )
         }
@@ -156,8 +157,8 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
         Some(p) => {
             out.say(format!("zero-order lobes -> {}", a.out.display()));
             out.say(format!(
-                "semi-discretisation lobes ({} speeds, not the {} of the zero-order method) -> {}",
-                sd.len(),
+                "semi-discretisation lobes ({}, not the {} of the zero-order method) -> {}",
+                count(sd.len(), "speed"),
                 zoa.len(),
                 p.display()
             ));
@@ -266,9 +267,9 @@ fn lobes_svg(a: &Args, zoa: &[LobePoint], sd: &[LobePoint]) -> String {
         });
     }
     let title = format!(
-        "Stability lobes at {}: {} teeth, D {} mm{}, ae/D {:.2} {}, Kt {:.0} N/mm², Kr {:.2}",
+        "Stability lobes at {}: {}, D {} mm{}, ae/D {:.2} {}, Kt {:.0} N/mm², Kr {:.2}",
         identify::axis::PoseText(a.at),
-        a.cut.teeth,
+        count(a.cut.teeth, "tooth"),
         report::eng(a.cut.diameter * 1e3),
         if a.cut.helix != 0.0 {
             format!(", helix {:.0}°", a.cut.helix)

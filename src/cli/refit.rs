@@ -102,8 +102,8 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
     }
     if rep.updated {
         out.say(format!(
-            "  {} lines used; simulated response fit after: {:.2} %",
-            rep.lines_hz.len(),
+            "  {} used; simulated response fit after: {:.2} %",
+            identify::axis::count(rep.lines_hz.len(), "line"),
             rep.fit_after_pct
         ));
     }

@@ -165,9 +165,9 @@ pub fn summarise(warnings: &[String], verbose: bool) -> Vec<String> {
     }
     let mut lines: Vec<String> = groups.iter().map(group_line).collect();
     lines.push(format!(
-        "({} warnings said in {} lines; --verbose prints each)",
-        warnings.len(),
-        groups.len()
+        "({} said in {}; --verbose prints each)",
+        plural(warnings.len(), "warning", "warnings"),
+        plural(groups.len(), "line", "lines")
     ));
     lines
 }

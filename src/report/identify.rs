@@ -468,12 +468,12 @@ pub fn identify_report(twin: &Twin, diagrams: &[StabilizationDiagram], view: Frf
     let mut b = String::new();
     let _ = writeln!(
         b,
-        "<p>Twin <code>{}</code>: {} pose(s), channels {}, interpolation <b>{}</b>. \
+        "<p>Twin <code>{}</code>: {}, channels {}, interpolation <b>{}</b>. \
          Receptance in µm/N; the model is the one stored in the twin (exponential-window \
          damping removed), the measured FRF is the estimate it was fitted to. Modes and \
          poses are numbered from 1.</p>",
         esc(&twin.name),
-        twin.poses.len(),
+        identify::axis::count(twin.poses.len(), "pose"),
         twin.channels
             .iter()
             .map(|c| c.name())
@@ -659,9 +659,9 @@ pub fn identify_report(twin: &Twin, diagrams: &[StabilizationDiagram], view: Frf
             .join(", ");
         let _ = writeln!(
             b,
-            "<details id=\"pose-{n}\"{open}><summary><b>Pose {n}: {}</b> — {} modes; fit {}</summary>",
+            "<details id=\"pose-{n}\"{open}><summary><b>Pose {n}: {}</b> — {}; fit {}</summary>",
             PoseText(p.pose),
-            p.model.modes.len(),
+            identify::axis::count(p.model.modes.len(), "mode"),
             fits,
             n = i + 1,
             open = if i == 0 { " open" } else { "" }

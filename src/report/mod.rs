@@ -23,10 +23,11 @@ pub struct Series<'a> {
     pub points: bool,
 }
 
-/// Eleven distinguishable colours (black, then the ten of matplotlib's `tab10` with red
-/// first): nine modes get nine colours.
+/// Twenty-one distinguishable colours: black, the ten of matplotlib's `tab10` with red
+/// first, then ten darker or purer hues unlike those (navy, maroon, teal, olive, magenta,
+/// lime, gold, pure blue, periwinkle, dark green), so twenty tracked modes get twenty colours.
 fn color(i: usize) -> RGBColor {
-    match i % 11 {
+    match i % 21 {
         0 => RGBColor(20, 20, 20),
         1 => RGBColor(214, 39, 40),
         2 => RGBColor(31, 119, 180),
@@ -37,7 +38,17 @@ fn color(i: usize) -> RGBColor {
         7 => RGBColor(227, 119, 194),
         8 => RGBColor(188, 189, 34),
         9 => RGBColor(23, 190, 207),
-        _ => RGBColor(127, 127, 127),
+        10 => RGBColor(127, 127, 127),
+        11 => RGBColor(0, 0, 128),
+        12 => RGBColor(128, 0, 0),
+        13 => RGBColor(0, 128, 128),
+        14 => RGBColor(128, 128, 0),
+        15 => RGBColor(255, 0, 255),
+        16 => RGBColor(0, 210, 0),
+        17 => RGBColor(255, 215, 0),
+        18 => RGBColor(0, 0, 255),
+        19 => RGBColor(96, 96, 255),
+        _ => RGBColor(0, 90, 0),
     }
 }
 
@@ -1237,6 +1248,21 @@ mod tests {
             (x - 1.0).abs() < 1e-12 && (y - 10.0).abs() < 1e-9,
             "{runs:?}"
         );
+    }
+
+    #[test]
+    fn twenty_tracked_modes_get_twenty_colours() {
+        // modes k = 0..20 are drawn in colour k + 1; black (0) is the measured FRF
+        let c: Vec<_> = (0..=20).map(super::color).collect();
+        for i in 0..c.len() {
+            for j in 0..i {
+                let (a, b) = (c[i], c[j]);
+                let d = (a.0 as i32 - b.0 as i32).abs()
+                    + (a.1 as i32 - b.1 as i32).abs()
+                    + (a.2 as i32 - b.2 as i32).abs();
+                assert!(d > 60, "colours {j} and {i} alike: {b:?} {a:?}");
+            }
+        }
     }
 
     #[test]

@@ -23,10 +23,10 @@ pub fn refit_report(old: &Twin, new: &Twin, rep: &RefitReport, series: &[TimeSer
     let mut b = String::new();
     let _ = writeln!(
         b,
-        "<p>Refit of <code>{}</code> from {} operating record(s) at pose {} \
+        "<p>Refit of <code>{}</code> from {} at pose {} \
          with the <b>{}</b> method. Modes are numbered from 1 (mode 1 = the lowest).</p>",
         esc(&new.name),
-        series.len(),
+        identify::axis::count(series.len(), "operating record"),
         PoseText(rep.pose),
         format!("{:?}", rep.method).to_lowercase()
     );
@@ -365,8 +365,8 @@ fn files_cell(files: &[String]) -> String {
         })
         .collect();
     format!(
-        "<details><summary>{} files{}</summary>{}</details>",
-        files.len(),
+        "<details><summary>{}{}</summary>{}</details>",
+        identify::axis::count(files.len(), "file"),
         if common {
             format!(" in <code>{}</code>", esc(&first))
         } else {
