@@ -141,7 +141,7 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
                 "measured FRF file"
             }
         ),
-        twin.poses.len(),
+        identify::axis::count(twin.poses.len(), "pose"),
         twin.channels
             .iter()
             .map(|c| c.name())

@@ -76,8 +76,52 @@ fn fit_text(f: &ChannelFit) -> String {
     )
 }
 
-/// The modes of one pose: frequency, damping, modal stiffness and mass per channel.
-fn modes_table(model: &ModalModel) -> String {
+/// What a reader should know about mode `k` of a pose fitted in `band` \[Hz\]: a pole pair
+/// outside the band or damped beyond any resonance stands for the modes outside it (a
+/// residual term, not a mode of the structure in the band); two modes within their
+/// half-power bandwidths of each other may be one mode fitted twice. Empty when nothing
+/// is to be said.
+fn mode_note(model: &ModalModel, k: usize, band: [f64; 2]) -> String {
+    let m = &model.modes[k];
+    let f = m.freq_hz();
+    let residual = |o: &Mode| o.freq_hz() < band[0] || o.freq_hz() > band[1] || o.zeta >= 0.3;
+    let mut notes = Vec::new();
+    if f < band[0] || f > band[1] {
+        notes.push(format!(
+            "outside the fitted band {:.0}–{:.0} Hz: a residual term for the modes {}",
+            band[0],
+            band[1],
+            if f < band[0] { "below" } else { "above" }
+        ));
+    } else if m.zeta >= 0.3 {
+        notes.push(format!(
+            "damping {:.0} %: no resonance, a residual term",
+            100.0 * m.zeta
+        ));
+    }
+    // half-power bandwidths 2ζf: closer than the sum of the half widths, the two peaks
+    // are one in the FRF
+    let near: Vec<String> = model
+        .modes
+        .iter()
+        .enumerate()
+        .filter(|&(j, o)| {
+            j != k && !residual(o) && (o.freq_hz() - f).abs() < m.zeta * f + o.zeta * o.freq_hz()
+        })
+        .map(|(j, _)| (j + 1).to_string())
+        .collect();
+    if !near.is_empty() && !residual(m) {
+        notes.push(format!(
+            "within the half-power bandwidth of mode {}: one peak, perhaps fitted twice",
+            near.join(", ")
+        ));
+    }
+    notes.join("; ")
+}
+
+/// The modes of one pose fitted in `band` \[Hz\]: frequency, damping, modal stiffness and
+/// mass per channel, and a note where a mode is not what it seems ([`mode_note`]).
+fn modes_table(model: &ModalModel, band: [f64; 2]) -> String {
     let mut b = String::from("<table><tr><th>mode</th><th>f [Hz]</th><th>ζ [%]</th>");
     for c in &model.channels {
         let _ = write!(
@@ -85,6 +129,13 @@ fn modes_table(model: &ModalModel) -> String {
             "<th>k<sub>{0}</sub> [N/µm]</th><th>m<sub>{0}</sub> [kg]</th>",
             c.channel
         );
+    }
+    let notes: Vec<String> = (0..model.modes.len())
+        .map(|k| mode_note(model, k, band))
+        .collect();
+    let any_note = notes.iter().any(|n| !n.is_empty());
+    if any_note {
+        b.push_str("<th style=\"text-align:left\">note</th>");
     }
     b.push_str("</tr>");
     for (k, m) in model.modes.iter().enumerate() {
@@ -101,6 +152,13 @@ fn modes_table(model: &ModalModel) -> String {
                 stiffness_text(m, n, largest)
             });
             let _ = write!(b, "<td>{ks}</td><td>{ms}</td>");
+        }
+        if any_note {
+            let _ = write!(
+                b,
+                "<td style=\"text-align:left\"><small>{}</small></td>",
+                esc(&notes[k])
+            );
         }
         b.push_str("</tr>");
     }
@@ -504,7 +562,11 @@ pub fn identify_report(twin: &Twin, diagrams: &[StabilizationDiagram], view: Frf
             modes_summary(twin)
         );
     } else if let Some(p) = twin.poses.first() {
-        let _ = writeln!(b, "<h2>Identified modes</h2>{}", modes_table(&p.model));
+        let _ = writeln!(
+            b,
+            "<h2>Identified modes</h2>{}",
+            modes_table(&p.model, p.band_hz)
+        );
     }
     let _ = writeln!(
         b,
@@ -671,7 +733,7 @@ pub fn identify_report(twin: &Twin, diagrams: &[StabilizationDiagram], view: Frf
             "<h3>Modes at pose {}</h3>{}<p>Fit per channel: {}.</p>",
             i + 1,
             if twin.poses.len() > 1 {
-                modes_table(&p.model)
+                modes_table(&p.model, p.band_hz)
             } else {
                 "<p>(the table above)</p>".into()
             },
