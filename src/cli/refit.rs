@@ -109,11 +109,11 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
     }
     if let Some(oe) = &rep.output_error {
         out.say(format!(
-            "  output-error stage: residual {:.2} % -> {:.2} % of the response RMS in {} iterations \
+            "  output-error stage: residual {:.2} % -> {:.2} % of the response RMS in {} \
              (first {:.2} s of each record not fitted); force noise floor {} of the force's median level",
             100.0 * oe.rel_rms_before,
             100.0 * oe.rel_rms_after,
-            oe.iterations,
+            identify::axis::count(oe.iterations, "iteration"),
             oe.skipped_s,
             oe.force_noise_text()
         ));
