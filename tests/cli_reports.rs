@@ -196,7 +196,10 @@ fn demo_reports_number_modes_from_1_format_poses_and_show_every_pose() {
         "history legend not numbered from 1"
     );
     assert!(!rf.contains("mode 0"), "refit.html: mode 0");
-    assert!(t.contains("mode 3 updated: held-out"), "one mode is not 'modes'");
+    assert!(
+        t.contains("mode 3 updated: held-out"),
+        "one mode is not 'modes'"
+    );
     assert!(!t.contains("modes 3 "), "refit.html: 'modes 3'");
     // the history counts its entries from 1 (entry 1: the identification)
     let hist = t.find("<h2>History</h2>").expect("history");

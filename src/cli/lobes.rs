@@ -285,7 +285,7 @@ fn lobes_svg(a: &Args, zoa: &[LobePoint], sd: &[LobePoint]) -> String {
         a.cut.kt * 1e-6,
         a.cut.kr,
     );
-    report::figure_legend_below(&report::Figure {
+    report::figure(&report::Figure {
         title: &title,
         xlabel: "spindle speed [rpm]",
         xscale: Scale::Lin,

@@ -100,20 +100,37 @@ fn mode_note(model: &ModalModel, k: usize, band: [f64; 2]) -> String {
         ));
     }
     // half-power bandwidths 2ζf: closer than the sum of the half widths, the two peaks
-    // are one in the FRF
-    let near: Vec<String> = model
+    // are one in the FRF. Two modes of one peak that pull a direct channel in opposite
+    // directions are one resonance fitted twice (the data fix only their sum); two close
+    // modes of one sign in every direct channel are a real pair (an x and a y mode).
+    let constant = |j: usize, ci: usize| {
+        model.channels[ci]
+            .num
+            .get(j)
+            .map_or(0.0, |n| modal_constant(&model.modes[j], n))
+    };
+    let direct: Vec<usize> = (0..model.channels.len())
+        .filter(|&ci| model.channels[ci].channel.output == model.channels[ci].channel.input)
+        .collect();
+    let near: Vec<usize> = model
         .modes
         .iter()
         .enumerate()
         .filter(|&(j, o)| {
-            j != k && !residual(o) && (o.freq_hz() - f).abs() < m.zeta * f + o.zeta * o.freq_hz()
+            j != k
+                && !residual(o)
+                && (o.freq_hz() - f).abs() < m.zeta * f + o.zeta * o.freq_hz()
+                && direct
+                    .iter()
+                    .any(|&ci| constant(k, ci) * constant(j, ci) < 0.0)
         })
-        .map(|(j, _)| (j + 1).to_string())
+        .map(|(j, _)| j)
         .collect();
     if !near.is_empty() && !residual(m) {
         notes.push(format!(
-            "within the half-power bandwidth of mode {}: one peak, perhaps fitted twice",
-            near.join(", ")
+            "within the half-power bandwidth of {}, of opposite sign in a direct channel: \
+             one peak fitted twice (the data fix only their sum)",
+            identify::refit::modes_named(&near)
         ));
     }
     notes.join("; ")

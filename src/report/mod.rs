@@ -208,8 +208,6 @@ pub struct Panel<'a> {
     pub height: u32,
     /// A region shaded from the bottom of the panel up to this curve (x, y, label).
     pub shade: Option<(&'a [f64], &'a [f64], &'a str)>,
-    /// Where the legend goes (upper right unless said).
-    pub legend: SeriesLabelPosition,
 }
 
 impl<'a> Panel<'a> {
@@ -222,7 +220,6 @@ impl<'a> Panel<'a> {
             yrange: None,
             height,
             shade: None,
-            legend: SeriesLabelPosition::UpperRight,
         }
     }
 }
@@ -323,8 +320,6 @@ struct Place<'a> {
     bottom: bool,
     xlog: bool,
     ylog: bool,
-    /// The figure draws the legend under the plot (not inside it, over the data).
-    legend_below: bool,
 }
 
 /// A polyline with breaks (`None`) cut to the y range `[lo, hi]`: each segment that
@@ -423,7 +418,6 @@ where
         bottom,
         xlog,
         ylog,
-        legend_below,
     } = place;
     let (ylo, yhi) = (yr.range().start, yr.range().end);
     let xr_span = xr.range().end - xr.range().start;
@@ -521,16 +515,6 @@ where
             }
         }
     }
-    if !legend_below && (panel.series.iter().any(|s| !s.label.is_empty()) || panel.shade.is_some())
-    {
-        let _ = chart
-            .configure_series_labels()
-            .position(panel.legend.clone())
-            .background_style(WHITE.mix(0.85))
-            .border_style(RGBColor(150, 150, 150))
-            .label_font(("sans-serif", 14))
-            .draw();
-    }
 }
 
 /// Draws a panel on the x axis `xr` with the y axis its scale asks for.
@@ -558,25 +542,24 @@ where
     }
 }
 
-/// An SVG figure: panels over a shared x axis (linear or log), engineering tick labels.
+/// An SVG figure: panels over a shared x axis (linear or log), engineering tick labels,
+/// the legend in rows under the plot (inside a panel it would cover data).
 pub fn figure(f: &Figure<'_>) -> String {
-    draw_figure(f, false)
+    draw_figure(f)
 }
 
-/// [`figure`] with the legend in a row under the plot instead of inside a panel, where it
-/// would cover data (for a standalone SVG, which has no HTML legend beside it).
-pub fn figure_legend_below(f: &Figure<'_>) -> String {
-    draw_figure(f, true)
-}
-
-/// The legend entries of a figure's panels: shading first, then the labelled lines.
+/// The legend entries of a figure's panels: shading first, then the labelled lines, each
+/// label once (a line in the magnitude and the phase panel is one entry).
 fn legend_entries<'a>(f: &'a Figure<'a>) -> Vec<(&'a str, LegendMark)> {
-    let mut out = Vec::new();
+    let mut out: Vec<(&'a str, LegendMark)> = Vec::new();
     for p in f.panels {
         if let Some((_, _, label)) = p.shade {
             out.push((label, LegendMark::Shade));
         }
         for s in p.series.iter().filter(|s| !s.label.is_empty()) {
+            if out.iter().any(|(l, _)| *l == s.label) {
+                continue;
+            }
             out.push((
                 s.label,
                 if s.points {
@@ -600,7 +583,7 @@ enum LegendMark {
 /// The shading colour of a panel's region.
 const SHADE: RGBColor = RGBColor(200, 235, 200);
 
-fn draw_figure(f: &Figure<'_>, legend_below: bool) -> String {
+fn draw_figure(f: &Figure<'_>) -> String {
     let Some(xr) = f.xrange.or_else(|| {
         data_range(
             f.panels
@@ -616,12 +599,24 @@ fn draw_figure(f: &Figure<'_>, legend_below: bool) -> String {
     } else {
         padded(xr, f.xscale)
     };
-    let entries = if legend_below {
-        legend_entries(f)
+    // the legend's rows: entries left to right, a new row where the next would pass the
+    // right edge (14 px sans-serif: ~7 px a letter)
+    let entries = legend_entries(f);
+    let mut placed: Vec<(i32, u32)> = Vec::new();
+    let (mut x, mut row) = (80i32, 0u32);
+    for (label, _) in &entries {
+        let w = 26 + (label.chars().count() as f64 * 6.8) as i32 + 28;
+        if x + w > f.width as i32 - 8 && x > 80 {
+            (x, row) = (80, row + 1);
+        }
+        placed.push((x, row));
+        x += w;
+    }
+    let legend_h: u32 = if entries.is_empty() {
+        0
     } else {
-        Vec::new()
+        22 * (row + 1) + 4
     };
-    let legend_h: u32 = if entries.is_empty() { 0 } else { 26 };
     let height: u32 = f.panels.iter().map(|p| p.height).sum::<u32>() + 30 + legend_h;
     let mut svg = String::new();
     {
@@ -646,7 +641,6 @@ fn draw_figure(f: &Figure<'_>, legend_below: bool) -> String {
                 bottom,
                 xlog: f.xscale == Scale::Log,
                 ylog: p.yscale == Scale::Log,
-                legend_below,
             };
             match f.xscale {
                 Scale::Log => {
@@ -660,32 +654,29 @@ fn draw_figure(f: &Figure<'_>, legend_below: bool) -> String {
                 _ => panel_with_y(&area, RangedCoordf64::from(xr.0..xr.1), yr, p, place),
             }
         }
-        if !entries.is_empty() {
-            // one row under the x label, left to right (14 px sans-serif: ~7 px a letter)
-            let y = (height - legend_h / 2) as i32;
-            let mut x = 80i32;
-            for (label, mark) in &entries {
-                match *mark {
-                    LegendMark::Shade => {
-                        let _ = root.draw(&Rectangle::new(
-                            [(x, y - 6), (x + 20, y + 6)],
-                            SHADE.filled(),
-                        ));
-                    }
-                    LegendMark::Line(c) => {
-                        let _ = root.draw(&PathElement::new(
-                            vec![(x, y), (x + 20, y)],
-                            color(c).stroke_width(2),
-                        ));
-                    }
-                    LegendMark::Dot(c) => {
-                        let _ = root.draw(&Circle::new((x + 10, y), 3, color(c).filled()));
-                    }
+        let top = (height - legend_h) as i32;
+        for ((label, mark), (x, row)) in entries.iter().zip(&placed) {
+            let y = top + 13 + 22 * *row as i32;
+            let x = *x;
+            match *mark {
+                LegendMark::Shade => {
+                    let _ = root.draw(&Rectangle::new(
+                        [(x, y - 6), (x + 20, y + 6)],
+                        SHADE.filled(),
+                    ));
                 }
-                let style = ("sans-serif", 14).into_font().color(&BLACK);
-                let _ = root.draw(&Text::new(label.to_string(), (x + 26, y - 8), style));
-                x += 26 + (label.chars().count() as f64 * 6.8) as i32 + 28;
+                LegendMark::Line(c) => {
+                    let _ = root.draw(&PathElement::new(
+                        vec![(x, y), (x + 20, y)],
+                        color(c).stroke_width(2),
+                    ));
+                }
+                LegendMark::Dot(c) => {
+                    let _ = root.draw(&Circle::new((x + 10, y), 3, color(c).filled()));
+                }
             }
+            let style = ("sans-serif", 14).into_font().color(&BLACK);
+            let _ = root.draw(&Text::new(label.to_string(), (x + 26, y - 8), style));
         }
         let _ = root.present();
     }
