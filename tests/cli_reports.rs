@@ -294,7 +294,8 @@ fn demo_reports_number_modes_from_1_format_poses_and_show_every_pose() {
     let err = stderr(&o);
     assert_eq!(o.status.code(), Some(0), "{err}");
     assert!(err.contains("  mode 3: 180.00 Hz"), "{err}");
-    assert!(err.contains("modes 3 updated"), "{err}");
+    assert!(err.contains("mode 3 updated"), "{err}");
+    assert!(!err.contains("modes 3"), "{err}");
     // and its JSON gives each changed mode's number beside its index
     let o = mtwin(&[
         "refit",
