@@ -1,4 +1,4 @@
-//! Writes a long continuous-excitation time-series CSV (SPEC section 2) straight to disk,
+//! Writes a long continuous-excitation time-series CSV (docs/formats.md, "Time-series CSV") straight to disk,
 //! one row at a time (memory does not grow with the record), for `scripts/bench_memory.sh`.
 //!
 //! ```sh

@@ -29,11 +29,11 @@ ln -sfn "$demo/data" "$work/data"
 (cd "$work" && "$mtwin" frf data/campaign/pose01_hammer_x.csv data/campaign/pose01_hammer_y.csv \
     --out frf.csv --report frf.html -q)
 shot() { "$here/screenshot-report.sh" "$1" "$work/$2.png" "$3" "${4:-1100}" >/dev/null; }
-shot "$demo/identify.html" identify 7200
+shot "$demo/identify.html" identify 7300
 shot "$work/identify_reim.html" reim 5200
-shot "$demo/refit.html" refit 5400
+shot "$demo/refit.html" refit 5500
 shot "$demo/diagnosis/report.html" diagnosis 1400
-shot "$demo/lobes_before.svg" lobes 430 920
+shot "$demo/lobes_before.svg" lobes 440 920
 shot "$demo/index.html" index 1000
 shot "$work/frf.html" frf 760
 img=$root/docs/img
@@ -44,13 +44,13 @@ cut() { # SOURCE GEOMETRY NAME
 }
 cut identify 1100x1000+0+0 identify-modes
 cut identify 1100x700+0+1480 identify-poses
-cut identify 1100x560+0+3440 identify-tracked-modes
-cut identify 1100x520+0+4460 identify-frf-mag-phase
-cut reim 1100x520+0+4270 identify-frf-re-im
-cut identify 1100x430+0+6620 identify-stabilization
+cut identify 1100x590+0+3440 identify-tracked-modes
+cut identify 1100x625+0+4405 identify-frf-mag-phase
+cut reim 1100x600+0+4405 identify-frf-re-im
+cut identify 1100x475+0+6688 identify-stabilization
 cut refit 1100x1250+0+0 refit
-cut refit 1100x760+0+4470 refit-history
+cut refit 1100x740+0+4695 refit-history
 cut diagnosis 1100x1300+0+0 diagnosis
-cut lobes 920x430+0+0 lobes
+cut lobes 920x440+0+0 lobes
 cut index 1100x1000+0+0 demo-index
 cut frf 1100x760+0+0 frf

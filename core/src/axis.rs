@@ -117,3 +117,58 @@ pub fn parse_pose(s: &str) -> Result<[f64; 3], String> {
     }
     Ok(p)
 }
+
+/// `n` and a noun for messages, the noun in the plural unless `n` is 1: `1 mode`,
+/// `3 modes`, `1 history entry`, `2 history entries`, `4 teeth`, `0 passes`. The last
+/// word of a noun of several words takes the plural.
+pub fn count(n: usize, noun: &str) -> String {
+    if n == 1 {
+        format!("1 {noun}")
+    } else {
+        format!("{n} {}", plural(noun))
+    }
+}
+
+/// The English plural of a noun (its last word): `mode` → `modes`, `entry` → `entries`,
+/// `pass` → `passes`, `tooth` → `teeth`.
+pub fn plural(noun: &str) -> String {
+    let (head, last) = match noun.rfind(' ') {
+        Some(i) => noun.split_at(i + 1),
+        None => ("", noun),
+    };
+    let many = match last {
+        "tooth" => "teeth".to_string(),
+        "axis" => "axes".to_string(),
+        "datum" => "data".to_string(),
+        w if w.ends_with('y')
+            && !w.ends_with("ay")
+            && !w.ends_with("ey")
+            && !w.ends_with("oy")
+            && !w.ends_with("uy") =>
+        {
+            format!("{}ies", &w[..w.len() - 1])
+        }
+        w if ["s", "x", "ch", "sh"].iter().any(|e| w.ends_with(e)) => format!("{w}es"),
+        w => format!("{w}s"),
+    };
+    format!("{head}{many}")
+}
+
+#[cfg(test)]
+mod count_tests {
+    use super::{count, plural};
+
+    #[test]
+    fn one_thing_many_things() {
+        assert_eq!(count(1, "mode"), "1 mode");
+        assert_eq!(count(3, "mode"), "3 modes");
+        assert_eq!(count(0, "pose"), "0 poses");
+        assert_eq!(count(1, "history entry"), "1 history entry");
+        assert_eq!(count(2, "history entry"), "2 history entries");
+        assert_eq!(count(4, "tooth"), "4 teeth");
+        assert_eq!(count(2, "pass"), "2 passes");
+        assert_eq!(count(2, "operating record"), "2 operating records");
+        assert_eq!(plural("key"), "keys");
+        assert_eq!(plural("axis"), "axes");
+    }
+}

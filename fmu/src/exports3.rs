@@ -250,8 +250,9 @@ fn scalars(nvr: usize, n_values: usize) -> Result<(), String> {
         Ok(())
     } else {
         Err(format!(
-            "{n_values} values for {nvr} value references (every variable of this FMU is a \
-             scalar)"
+            "{} for {} (every variable of this FMU is a scalar)",
+            mtwin_core::axis::count(n_values, "value"),
+            mtwin_core::axis::count(nvr, "value reference")
         ))
     }
 }

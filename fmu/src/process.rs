@@ -487,12 +487,7 @@ impl ProcessSlave {
 fn param(vr: u32) -> Result<&'static Param, String> {
     vr.checked_sub(VR_PARAM0)
         .and_then(|i| PARAMS.get(i as usize))
-        .ok_or_else(|| {
-            format!(
-                "unknown value reference {vr} (this FMU has 0..={})",
-                VR_PARAM0 as usize + PARAMS.len() - 1
-            )
-        })
+        .ok_or_else(|| crate::slave::unknown_vr(vr, VR_PARAM0 as usize + PARAMS.len(), ""))
 }
 
 fn name(vr: u32) -> &'static str {

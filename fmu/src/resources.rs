@@ -83,7 +83,7 @@ impl Summary {
     /// `18 pose(s); identify 2026-11-25..2026-11-25; refit 2026-11-26..2026-12-01` (the
     /// first and last date of each kind of history entry).
     pub fn line(&self) -> String {
-        let mut s = format!("{} pose(s)", self.poses);
+        let mut s = mtwin_core::axis::count(self.poses, "pose");
         for k in &self.history {
             let day = |d: &str| d.get(..10).unwrap_or(d).to_string();
             s += &format!("; {} {}..{}", k.kind, day(&k.first), day(&k.last));
@@ -217,9 +217,11 @@ impl FmuTwin {
         let n = first.model.modes.len();
         if let Some(c) = e.cubic.iter().find(|c| c.mode >= n || !c.kappa.is_finite()) {
             return Err(format!(
-                "extensions.cubic: mode {} with kappa {} (the twin has {n} modes; kappa must \
+                "extensions.cubic: mode {} with kappa {} (the twin has {}; kappa must \
                  be finite)",
-                c.mode, c.kappa
+                c.mode,
+                c.kappa,
+                mtwin_core::axis::count(n, "mode")
             ));
         }
         Ok(())

@@ -355,10 +355,7 @@ impl Slave {
                 Some(t) => format!(" and {t} (time)"),
                 None => String::new(),
             };
-            format!(
-                "unknown value reference {vr} (this FMU has 0..={}{time})",
-                self.vars.len().saturating_sub(1)
-            )
+            unknown_vr(vr, self.vars.len(), &time)
         })
     }
 
@@ -550,8 +547,34 @@ impl Slave {
     }
 }
 
+/// The message for a value reference that is not one of the `n` variables (value
+/// references `0` to `n − 1`; `extra` names any other, e.g. ` and 8 (time)`): in the
+/// words of the model description, not a Rust range.
+pub(crate) fn unknown_vr(vr: u32, n: usize, extra: &str) -> String {
+    let known = match n {
+        0 => return format!("unknown value reference {vr}: this FMU has no variables"),
+        1 => "is 0".to_string(),
+        n => format!("are 0 to {}", n - 1),
+    };
+    format!(
+        "unknown value reference {vr}: this FMU's value references {known}{extra} \
+         (listed in modelDescription.xml)"
+    )
+}
+
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn an_unknown_value_reference_is_said_in_model_description_words() {
+        let m = super::unknown_vr(9, 8, " and 8 (time)");
+        assert_eq!(
+            m,
+            "unknown value reference 9: this FMU's value references are 0 to 7 and 8 (time) \
+             (listed in modelDescription.xml)"
+        );
+        assert!(!m.contains("..="));
+    }
+
     use super::{Slave, Snapshot};
     use mtwin_core::axis::Axis;
     use vmachine::structure::ModalMachine;

@@ -217,7 +217,14 @@ pub(crate) unsafe fn slice<'a, T>(p: *const T, n: usize, what: &str) -> Result<&
         return Ok(&[]);
     }
     if p.is_null() {
-        return Err(format!("{what} is NULL but {n} values were announced"));
+        return Err(format!(
+            "{what} is NULL but {} announced",
+            if n == 1 {
+                "1 value was".to_string()
+            } else {
+                format!("{n} values were")
+            }
+        ));
     }
     // SAFETY: non-null and valid for n elements per the caller's contract.
     Ok(unsafe { std::slice::from_raw_parts(p, n) })
@@ -236,7 +243,14 @@ pub(crate) unsafe fn slice_mut<'a, T>(
         return Ok(&mut []);
     }
     if p.is_null() {
-        return Err(format!("{what} is NULL but {n} values were announced"));
+        return Err(format!(
+            "{what} is NULL but {} announced",
+            if n == 1 {
+                "1 value was".to_string()
+            } else {
+                format!("{n} values were")
+            }
+        ));
     }
     // SAFETY: non-null and valid for n elements per the caller's contract.
     Ok(unsafe { std::slice::from_raw_parts_mut(p, n) })

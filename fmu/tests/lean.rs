@@ -219,7 +219,7 @@ fn model_description_states_units_ranges_descriptions_and_feedthrough() {
         .contains("relative to"));
     let d = md.description.as_deref().unwrap();
     assert!(
-        d.contains("18 pose(s)") && d.contains("identify 2025-11-24"),
+        d.contains("18 poses") && d.contains("identify 2025-11-24"),
         "{d}"
     );
     let date = md.generation_date_and_time.as_deref().expect("date");

@@ -618,9 +618,9 @@ pub fn identify_campaign(
     let mut res = identify_frfs(measured, opts, progress)?;
     if let Some(h) = res.twin.history.last_mut() {
         h.summary = format!(
-            "a-priori twin from {} records at {} poses",
-            records.len(),
-            res.twin.poses.len()
+            "a-priori twin from {} at {}",
+            crate::axis::count(records.len(), "record"),
+            crate::axis::count(res.twin.poses.len(), "pose")
         );
     }
     Ok(res)
@@ -1025,8 +1025,9 @@ fn finish_campaign(
         kind: "identify".into(),
         files: all_sources.to_vec(),
         summary: format!(
-            "a-priori twin from {n_sources} measured FRF file(s) at {} poses",
-            twin.poses.len()
+            "a-priori twin from {} at {}",
+            crate::axis::count(n_sources, "measured FRF file"),
+            crate::axis::count(twin.poses.len(), "pose")
         ),
         figures: Default::default(),
         previous_poses: Vec::new(),
@@ -1473,9 +1474,13 @@ fn common_residual_poles(fits: &mut [PoseFit], freeze: Freeze) -> Result<(Vec<St
         f.model = m;
     }
     notes.push(format!(
-        "{} pole pair(s) stand for modes outside the band or off a smooth trend over the poses ({}): one pole for every pose, \
+        "{} for modes outside the band or off a smooth trend over the poses ({}): one pole for every pose, \
          numerators per pose",
-        common.len(),
+        if common.len() == 1 {
+            "1 pole pair stands".to_string()
+        } else {
+            format!("{} pole pairs stand", common.len())
+        },
         common
             .iter()
             .map(|&(_, wn, z)| format!(
@@ -1581,9 +1586,9 @@ fn track_modes(fits: &mut [PoseFit]) -> Result<Vec<String>> {
         if carried < own - 1.0 && !own_is_better {
             warnings.push(format!(
                 "pose {}: tracked model fits {carried:.2} % vs {own:.2} % for the pose's own \
-                 fit ({} modes); the pose may hold a mode its neighbours lack",
+                 fit ({}); the pose may hold a mode its neighbours lack",
                 crate::axis::PoseText(fits[i].pose),
-                fits[i].model.modes.len()
+                crate::axis::count(fits[i].model.modes.len(), "mode")
             ));
         }
         if let Some(s) = fits[i].sigma {
@@ -1637,7 +1642,7 @@ fn fit_pose(
     let inputs = input_axes(frf);
     let name = |o: &FitOptions| -> String {
         if let (Some(n), None) = (o.n_modes, options.n_modes) {
-            return format!("{n} modes (order raised)");
+            return format!("{} (order raised)", crate::axis::count(n, "mode"));
         }
         format!(
             "{} weighting, diagram orders up to {}",
@@ -1786,11 +1791,11 @@ fn fit_pose(
                 };
                 let better = s.0 > best_score.0 + gain;
                 plan.alternatives.push(format!(
-                    "{}: {what} {:.2} %, worst channel {:.2} %, {} modes{}",
+                    "{}: {what} {:.2} %, worst channel {:.2} %, {}{}",
                     name(cand),
                     s.0,
                     s.1,
-                    alt.model.modes.len(),
+                    crate::axis::count(alt.model.modes.len(), "mode"),
                     if better { " (kept)" } else { "" }
                 ));
                 if better {
@@ -1822,7 +1827,10 @@ fn fit_pose(
             Ok(alt) => {
                 let s = score(&alt);
                 let better = s.0 > best_score.0 + ORDER_ALTERNATIVE_GAIN;
-                let cand_name = format!("{PER_INPUT_NAME} ({} modes)", alt.model.modes.len());
+                let cand_name = format!(
+                    "{PER_INPUT_NAME} ({})",
+                    crate::axis::count(alt.model.modes.len(), "mode")
+                );
                 plan.alternatives.push(format!(
                     "{cand_name}: {what} {:.2} %, worst channel {:.2} %{}",
                     s.0,

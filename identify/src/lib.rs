@@ -14,7 +14,7 @@
 //! | a campaign: one fit per pose, modes tracked over the poses, leave-one-pose-out (2.2) | [`campaign`] |
 //! | interpolation between poses, the twin file, the model, simulation (2.2, eq. 1 and 3) | re-exported from `mtwin-core`: [`interpolate`], [`twin`], [`model`], [`simulate`], [`extended`] |
 //! | refit from operating data: operating spectra, drift check, intermediate FRF, modal update, output error, spread to the poses, history (2.3, 3.2) | [`refit`] ([`modal_update`], [`output_error`]; operating spectra in [`spectra::operating`]) |
-//! | diagnosis: what the twin gets wrong, its cause, the extended twin (ours, SPEC section 4) | [`diagnose`] (one file per cause) |
+//! | diagnosis: what the twin gets wrong, its cause, the extended twin (ours; docs/formats.md, "Diagnosis output") | [`diagnose`] (one file per cause) |
 //! | stability lobes of the twin (the co-simulation's use, ours) | [`lobes`] |
 //!
 //! ```

@@ -1135,7 +1135,11 @@ pub fn stable_sd(
 /// bracketing from the ZOA limit and regula falsi on `ln ρ(ap)` to `opts.rel_tol`, then
 /// searched below for unstable islands (ρ at 8 depths under the limit, each hump of ρ
 /// above 0.99 refined by golden section; an island found gives the limit at its lower
-/// edge, and the search repeats below it).
+/// edge, and the search repeats below it). Then continuity across neighbouring speeds: where
+/// the next lower or higher speed's limit lies more than 1 % below a speed's own and the
+/// cut is unstable 1 % above that depth at this speed too, the search runs again from
+/// there, so a lobe present at both speeds is found at both (repeated while limits
+/// change, at most 4 times).
 /// The chatter frequency is the alias of the critical multiplier's phase closest to the
 /// ZOA chatter frequency (a flip multiplier gives an odd multiple of half the tooth
 /// passing frequency).
@@ -1150,16 +1154,72 @@ pub fn lobes_sd(
     let prob = SdProblem::new(model, tool, cut, opts)?;
     let zoa = lobes_zoa(model, tool, cut, rpm)?;
     let near_default = model.modes.iter().map(|m| m.freq_hz()).fold(0.0, f64::max);
-    zoa.par_iter()
-        .map(|z| {
-            let (ap, fl) = prob.limit_guarded(z.rpm, z.ap_lim_m)?;
+    let mut lim: Vec<(f64, Floquet)> = zoa
+        .par_iter()
+        .map(|z| prob.limit_guarded(z.rpm, z.ap_lim_m))
+        .collect::<Result<_>>()?;
+    // Continuity across neighbouring speeds: a limit well below this speed's, found at
+    // the next lower or higher speed, is looked for here too (one spectral radius just
+    // above it; where unstable, the search from there, islands below included), so a
+    // lobe is not lost between two speeds that both cross it. A limit that stays
+    // different is a new lobe's tip between them.
+    let mut order: Vec<usize> = (0..rpm.len()).collect();
+    order.sort_by(|&a, &b| rpm[a].total_cmp(&rpm[b]));
+    for _ in 0..4 {
+        let found: Vec<Option<(f64, Floquet)>> = (0..order.len())
+            .into_par_iter()
+            .map(|p| {
+                let i = order[p];
+                let mut best: Option<(f64, Floquet)> = None;
+                for q in [p.checked_sub(1), Some(p + 1)].into_iter().flatten() {
+                    let Some(&j) = order.get(q) else { continue };
+                    let (aj, ai) = (lim[j].0, best.map_or(lim[i].0, |b| b.0));
+                    if !(aj.is_finite() && aj > 0.0 && aj < ai * (1.0 - ISLAND_DEPTH_TOL)) {
+                        continue;
+                    }
+                    // unstable here just above the neighbour's limit: the lobe is here
+                    // too, its lower edge below (a probe that does not converge says
+                    // nothing)
+                    let probe = aj * (1.0 + ISLAND_DEPTH_TOL);
+                    if probe >= ai
+                        || prob
+                            .floquet(rpm[i], probe)
+                            .map_or(true, |f| f.spectral_radius < 1.0)
+                    {
+                        continue;
+                    }
+                    let (a, f) = prob.limit_guarded(rpm[i], probe)?;
+                    if a < ai * (1.0 - ISLAND_DEPTH_TOL) {
+                        best = Some((a, f));
+                    }
+                }
+                Ok(best)
+            })
+            .collect::<Result<_>>()?;
+        let mut changed = false;
+        for (i, f) in found
+            .into_iter()
+            .enumerate()
+            .filter_map(|(p, f)| Some((order[p], f?)))
+        {
+            lim[i] = f;
+            changed = true;
+        }
+        if !changed {
+            break;
+        }
+    }
+    Ok(zoa
+        .iter()
+        .zip(lim)
+        .map(|(z, (ap, fl))| {
             let tau = 60.0 / (z.rpm * tool.teeth as f64);
             let near = if z.chatter_hz > 0.0 {
                 z.chatter_hz
             } else {
                 near_default
             };
-            Ok(LobePoint {
+            LobePoint {
                 rpm: z.rpm,
                 ap_lim_m: ap,
                 chatter_hz: if ap.is_finite() {
@@ -1167,9 +1227,9 @@ pub fn lobes_sd(
                 } else {
                     0.0
                 },
-            })
+            }
         })
-        .collect()
+        .collect())
 }
 
 /// Writes a lobe diagram as CSV (atomically): `rpm, ap_lim_zoa_m, ap_lim_sd_m,

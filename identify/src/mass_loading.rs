@@ -187,8 +187,13 @@ pub fn unload_all(records: &[TimeSeries]) -> (Vec<TimeSeries>, Vec<String>) {
         .collect();
     for (m, n) in masses {
         notes.push(format!(
-            "mass loading removed: {n} record(s) state a sensor mass of {:.1} g at the tool \
+            "mass loading removed: {} a sensor mass of {:.1} g at the tool \
              (sensor_mass={m}); the force is taken as f - m*a, the unloaded structure's",
+            if n == 1 {
+                "1 record states".to_string()
+            } else {
+                format!("{n} records state")
+            },
             m * 1e3
         ));
     }

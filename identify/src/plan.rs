@@ -126,7 +126,7 @@ pub fn plan_pose(
         .map(null_coherence_99);
     let basis = match facts.coherence_dof {
         Some(_) => "coherence from the FRF's line-to-line scatter".to_string(),
-        None => format!("{} averages", facts.averages.unwrap_or(0)),
+        None => crate::axis::count(facts.averages.unwrap_or(0), "average"),
     };
     let level = |c: &crate::frf::FrfChannel| c.h.iter().map(|v| v.norm()).fold(0.0, f64::max);
     let top = frf.channels.iter().map(level).fold(0.0, f64::max);

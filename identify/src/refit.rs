@@ -990,10 +990,10 @@ pub fn refit(
                              previous modes are kept"
                         .into(),
                     Some(c) => format!(
-                        "no update of the excited modes {} lowers the held-out misfit \
+                        "no update of the excited {} lowers the held-out misfit \
                          ({c:.3} σ) by {:.0} %, significantly where the mode resonates and \
                          within its identity bounds: the previous modes are kept",
-                        mode_numbers(&held.candidates),
+                        modes_named(&held.candidates),
                         100.0 * MIN_MISFIT_GAIN
                     ),
                 };
@@ -1003,8 +1003,8 @@ pub fn refit(
                 return Ok((out, report));
             };
             held.note = format!(
-                "modes {} updated: held-out misfit {:.3} σ -> {:.3} σ",
-                mode_numbers(&free),
+                "{} updated: held-out misfit {:.3} σ -> {:.3} σ",
+                modes_named(&free),
                 held.chi_before.unwrap_or(f64::NAN),
                 held.chi_after.unwrap_or(f64::NAN)
             );
@@ -1044,9 +1044,9 @@ pub fn refit(
                             } else {
                                 format!(
                                     "; the output-error refinement ends on its trust region's \
-                                     edge for modes {} (the records ask for more than a \
+                                     edge for {} (the records ask for more than a \
                                      refinement): not used, the modal update stands",
-                                    mode_numbers(&edge)
+                                    modes_named(&edge)
                                 )
                             };
                         }
@@ -1159,12 +1159,12 @@ fn push_history(
     }
     let summary = if report.updated {
         format!(
-            "{:?} refit at pose {}: simulated-response fit {:.2} % -> {:.2} %, {} modes changed",
+            "{:?} refit at pose {}: simulated-response fit {:.2} % -> {:.2} %, {} changed",
             opts.method,
             crate::axis::PoseText(pose),
             report.drift_fit_pct,
             report.fit_after_pct,
-            report.modes.len()
+            crate::axis::count(report.modes.len(), "mode")
         )
     } else {
         format!(
@@ -1196,10 +1196,27 @@ pub fn mode_numbers(ks: &[usize]) -> String {
     }
 }
 
+/// Modes (indices from 0) named for a sentence, counted from 1: `mode 3`,
+/// `modes 1 and 3`, `no mode`.
+pub fn modes_named(ks: &[usize]) -> String {
+    match ks.len() {
+        0 => "no mode".into(),
+        1 => format!("mode {}", mode_numbers(ks)),
+        _ => format!("modes {}", mode_numbers(ks)),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::model::{ChannelModel, Mode, ModeNum};
+
+    #[test]
+    fn modes_are_named_one_or_many() {
+        assert_eq!(modes_named(&[2]), "mode 3");
+        assert_eq!(modes_named(&[0, 2]), "modes 1 and 3");
+        assert_eq!(modes_named(&[]), "no mode");
+    }
 
     #[test]
     fn mode_numbers_count_from_one() {

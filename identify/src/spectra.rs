@@ -1071,8 +1071,9 @@ fn assemble(
         let (chans, singular) = acc.finish(ctx.opts.estimator)?;
         if singular > 0 {
             ctx.warnings.push(format!(
-                "excitation along {}: {singular} lines without usable force (H set to 0, coherence 0); the force does not excite these frequencies or the force axes are fully correlated",
-                axes_name(&acc.inputs)
+                "excitation along {}: {} without usable force (H set to 0, coherence 0); the force does not excite these frequencies or the force axes are fully correlated",
+                axes_name(&acc.inputs),
+                crate::axis::count(singular, "line")
             ));
         }
         for mut c in chans {

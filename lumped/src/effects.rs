@@ -1,4 +1,4 @@
-//! Hidden effects of SPEC section 4, each with parameters drawn from a seed, and the
+//! Hidden effects of the diagnosis causes (docs/formats.md, "Diagnosis output"), each with parameters drawn from a seed, and the
 //! answer `mtwin diagnose` should give, computed from the structure's eigen-analysis.
 //!
 //! All tests are at the workspace centre [`CENTRE`] on a given base machine (the one the

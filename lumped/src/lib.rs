@@ -17,7 +17,7 @@
 //! * [`excitation`] — hammer (pulse from the tip stiffness), random, sweeps, stepped
 //!   sine, milling (helix, runout, tooth-to-tooth variation);
 //! * [`measure`] — tests put together: simulate, decimate, add noise;
-//! * [`effects`] — the hidden effects of SPEC section 4 with their expected answers;
+//! * [`effects`] — the hidden effects of the diagnosis causes (docs/formats.md) with their expected answers;
 //! * [`record`] — records and the CSV files of SPEC sections 2 and 3.
 //!
 //! ```

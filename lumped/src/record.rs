@@ -44,7 +44,7 @@ impl Record {
         self.len() == 0
     }
 
-    /// The CSV text of SPEC section 2: comments, header
+    /// The CSV text of a time series (docs/formats.md, "Time-series CSV"): comments, header
     /// `t,fx,fy,fz,ax,ay,az,x,y,z` (or `dx,dy,dz`), one row per sample.
     pub fn to_csv(&self) -> String {
         let mut s = String::with_capacity(self.len() * 150 + 200);
@@ -101,7 +101,7 @@ pub fn write_atomic(path: &Path, text: &str) -> Result<(), Error> {
 }
 
 impl Frf {
-    /// FRF CSV of SPEC section 3: first line `# analytic receptance (m/N) at pose=X,Y,Z`
+    /// FRF CSV (docs/formats.md, "FRF CSV"): first line `# analytic receptance (m/N) at pose=X,Y,Z`
     /// (plus `extra` comment lines), header `f_hz,xx_re,xx_im,xy_re,...`, all 9 channels.
     pub fn to_csv(&self, extra: &[String]) -> String {
         let mut s = String::new();

@@ -626,15 +626,15 @@ impl PyTwin {
     fn __repr__(&self) -> String {
         let t = &self.inner;
         format!(
-            "<mtwin.Twin '{}': {} poses, channels {}, {} history entries>",
+            "<mtwin.Twin '{}': {}, channels {}, {}>",
             t.name,
-            t.poses.len(),
+            identify::axis::count(t.poses.len(), "pose"),
             t.channels
                 .iter()
                 .map(|c| c.name())
                 .collect::<Vec<_>>()
                 .join(","),
-            t.history.len()
+            identify::axis::count(t.history.len(), "history entry")
         )
     }
 }

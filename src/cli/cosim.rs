@@ -110,9 +110,9 @@ pub fn run_fmu(a: FmuArgs, out: &Output) -> Result<()> {
     let cut = a.process.cut();
     let size = export_process_fmu(&cut, &a.out, EMBEDDED_SLAVE)?;
     out.say(format!(
-        "process FMU (FMI 2.0 co-simulation: inputs dx, dy; outputs Fx, Fy; {} teeth, {} rpm, \
+        "process FMU (FMI 2.0 co-simulation: inputs dx, dy; outputs Fx, Fy; {}, {} rpm, \
          ap {} m) -> {}",
-        cut.teeth,
+        identify::axis::count(cut.teeth as usize, "tooth"),
         cut.rpm,
         cut.ap,
         a.out.display()

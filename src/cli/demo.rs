@@ -449,9 +449,14 @@ impl Demo<'_> {
         </ul><h2>Stability lobes (3 teeth, half immersion, Kt 600 N/mm²)</h2>\
         <p>The zero-order method (Altintas–Budak) and the semi-discretisation (Insperger–Stépán) \
         at the same speeds; a cut is stable below both lines (shaded). The sharp peaks are the \
-        stability pockets where two neighbouring lobes meet; where a line breaks and drops, a new \
-        lobe begins as an unstable island whose tip is at that speed (the lowest unstable depth \
-        jumps there; above the island the cut is stable again up to the older lobe).</p>\
+        stability pockets where two neighbouring lobes meet. Where the semi-discretisation drops \
+        steeply, a new lobe begins as an unstable island whose tip is at that speed (the lowest \
+        unstable depth jumps there; above the island the cut is stable again up to the older \
+        lobe): at this half immersion the cutting force varies strongly over a tooth period, and \
+        the semi-discretisation finds the flip (period-doubling) lobes, chatter at half the tooth \
+        passing frequency, that the zero-order method averages away (around 4000 rpm, where the \
+        teeth pass at twice the 95 Hz mode, the zero-order pocket is such a flip lobe; a time \
+        simulation of the cut agrees with the semi-discretisation).</p>\
         <p>Before the refit:</p><img src=\"lobes_before.svg\" alt=\"lobes before\"><p>After the refit (worn mode):</p><img src=\"lobes_after_refit.svg\" alt=\"lobes after\">\
         <p>Before the refit with the axes at (0.000, 0.600, 0.000) m instead of the centre: the modes move with the axes, and so do the lobes.</p><img src=\"lobes_corner.svg\" alt=\"lobes at a corner\">");
         identify::atomic::write_atomic(

@@ -91,8 +91,8 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
                 .unwrap_or_else(|| twin.poses.iter().map(|p| p.band_hz[1]).fold(0.0, f64::max));
             if !(hi > lo) || a.lines < 2 {
                 return Err(BadInput(format!(
-                    "empty frequency range {lo}..{hi} Hz with {} lines; give --fmin < --fmax and --lines >= 2",
-                    a.lines
+                    "empty frequency range {lo}..{hi} Hz with {}; give --fmin < --fmax and --lines >= 2",
+                    identify::axis::count(a.lines, "line")
                 ))
                 .into());
             }
@@ -116,10 +116,10 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
     let frf: Frf = model.frf(&freqs);
     let format = identify::io::measured::write_frf(&a.out, &frf, a.uff_binary)?;
     out.say(format!(
-        "FRF of {} channels at {} ({} lines {:.1}-{:.1} Hz, {}) -> {} ({format})",
-        frf.channels.len(),
+        "FRF of {} at {} ({} {:.1}-{:.1} Hz, {}) -> {} ({format})",
+        identify::axis::count(frf.channels.len(), "channel"),
         identify::axis::PoseText(a.at),
-        freqs.len(),
+        identify::axis::count(freqs.len(), "line"),
         freqs[0],
         freqs[freqs.len() - 1],
         if inside {

@@ -92,8 +92,8 @@ pub fn extensions_in_fmu(twin: &Twin) -> (Vec<String>, Vec<String>) {
     let mut carried = Vec::new();
     if !e.cubic.is_empty() {
         carried.push(format!(
-            "cubic modal stiffness on {} mode(s)",
-            e.cubic.len()
+            "cubic modal stiffness on {}",
+            identify::axis::count(e.cubic.len(), "mode")
         ));
     }
     if !e.disturbance.is_empty() {

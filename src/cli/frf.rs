@@ -87,7 +87,7 @@ fn frf_report(a: &Args, est: &FrfEstimate, unit: AverageUnit) -> String {
         keep.last().map_or(2.0, |&k| f[k]),
     ];
     let mut b = format!(
-        "<p>{} from {}: {}; {} estimator, {} used, {} dropped. Receptance in µm/N, drawn \
+        "<p>{} from {}: {}; {}. Receptance in µm/N, drawn \
          from {:.1} to {:.1} Hz (where some channel's coherence first and last stays \
          at 0.5 or more over 5 lines; the file holds every line); where the coherence is low the estimate \
          is not to be trusted.</p>",
@@ -99,9 +99,7 @@ fn frf_report(a: &Args, est: &FrfEstimate, unit: AverageUnit) -> String {
             .collect::<Vec<_>>()
             .join(", ")),
         esc(&est.method),
-        a.estimator.to_uppercase(),
-        unit.count(est.hits_used),
-        est.hits_dropped.len(),
+        averages_tail(est, unit),
         band[0],
         band[1],
     );
@@ -179,6 +177,20 @@ fn estimate(a: &Args, opts: &FrfOptions, out: &Output) -> Result<(FrfEstimate, R
     let series = read_series(&a.files, out)?;
     let est = estimate_frf(&series, opts).context("FRF estimation")?;
     Ok((est, Reading::InMemory))
+}
+
+/// What the estimate's method text leaves out: the method names the estimator, the line
+/// spacing and (impact) the hits averaged, said once; then the hits dropped, or how many
+/// segments, periods or records were averaged.
+fn averages_tail(est: &FrfEstimate, unit: AverageUnit) -> String {
+    if unit == AverageUnit::Hit {
+        match est.hits_dropped.len() {
+            0 => "no hit dropped".to_string(),
+            n => format!("{} dropped", identify::axis::count(n, "hit")),
+        }
+    } else {
+        format!("{} used", unit.count(est.hits_used))
+    }
 }
 
 /// What the averages of an estimate are: impact hits, Welch segments, chirp periods or
@@ -276,13 +288,10 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
         chans.push(serde_json::json!({"channel": c.channel.name(), "mean_coherence": mean_coh}));
     }
     let unit = AverageUnit::of(&est.method);
+    let tail = averages_tail(&est, unit);
     out.say(format!(
-        "{} ({}, Δf = {:.3} Hz, {} used, {} dropped) -> {} ({format})",
+        "{}; {tail} -> {} ({format})",
         est.method,
-        a.estimator.to_uppercase(),
-        est.df_hz,
-        unit.count(est.hits_used),
-        est.hits_dropped.len(),
         a.out.display()
     ));
     if let Some(r) = &a.report {

@@ -133,14 +133,16 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
     out.warnings(&res.warnings);
     let twin = &res.twin;
     out.say(format!(
-        "{} {}, {} poses, channels {} (read {:.2} s, total {:.2} s)",
-        a.files.len(),
-        if frf_files.is_empty() {
-            "records"
-        } else {
-            "measured FRF files"
-        },
-        twin.poses.len(),
+        "{}, {}, channels {} (read {:.2} s, total {:.2} s)",
+        identify::axis::count(
+            a.files.len(),
+            if frf_files.is_empty() {
+                "record"
+            } else {
+                "measured FRF file"
+            }
+        ),
+        identify::axis::count(twin.poses.len(), "pose"),
         twin.channels
             .iter()
             .map(|c| c.name())
@@ -180,11 +182,11 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
             .and_then(|pl| pl.measured_as)
             .map_or(String::new(), |m| format!(" ({} as measured)", m.name()));
         out.say(format!(
-            "  pose ({:.3}, {:.3}, {:.3}) m: {} modes ({}), band {:.0}-{:.0} Hz, fit {}{of}",
+            "  pose ({:.3}, {:.3}, {:.3}) m: {} ({}), band {:.0}-{:.0} Hz, fit {}{of}",
             p.pose[0],
             p.pose[1],
             p.pose[2],
-            p.order.modes,
+            identify::axis::count(p.order.modes, "mode"),
             if p.order.automatic {
                 "automatic"
             } else {

@@ -3,6 +3,7 @@
 use super::{check_output_not_input, parse_pose, BadInput, Output};
 use crate::report::{self, Scale, Series};
 use anyhow::Result;
+use identify::axis::count;
 use identify::interpolate::TwinEvaluator;
 use identify::lobes::{
     lobes_sd, lobes_zoa, log_speeds, with_rigid_tool_tip, write_lobes_csv, Cut, LobePoint,
@@ -48,8 +49,8 @@ pub struct Args {
     #[arg(long, default_value_t = 40)]
     pub sd_steps: usize,
     /// Also write an SVG plot of the lobes here: both methods, the stable region (below
-    /// both limits) shaded, the cut's data in the title; a line breaks where a new lobe
-    /// begins (an unstable island's tip: the limit drops there).
+    /// both limits) shaded, the cut's data in the title, the depth axis from the data;
+    /// where a new lobe begins as an unstable island (its tip), the limit drops there.
     #[arg(long)]
     pub plot: Option<PathBuf>,
 }
@@ -126,23 +127,23 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
     let min_zoa = zoa.iter().map(|p| p.ap_lim_m).fold(f64::INFINITY, f64::min);
     let min_sd = sd.iter().map(|p| p.ap_lim_m).fold(f64::INFINITY, f64::min);
     out.say(format!(
-        "lobes at {}, {} teeth, ae/D {}, Kt {:.3e} N/m², Kr {}: \
-         minimum stable depth ZOA {:.3} mm ({} speeds, {:.0} ms){}",
+        "lobes at {}, {}, ae/D {}, Kt {:.3e} N/m², Kr {}: \
+         minimum stable depth ZOA {:.3} mm ({}, {:.0} ms){}",
         identify::axis::PoseText(a.at),
-        a.cut.teeth,
+        count(a.cut.teeth, "tooth"),
         a.cut.immersion,
         a.cut.kt,
         a.cut.kr,
         min_zoa * 1e3,
-        zoa.len(),
+        count(zoa.len(), "speed"),
         t_zoa.as_secs_f64() * 1e3,
         if sd.is_empty() {
             String::new()
         } else {
             format!(
-                ", semi-discretisation {:.3} mm ({} speeds, {:.2} s)",
+                ", semi-discretisation {:.3} mm ({}, {:.2} s)",
                 min_sd * 1e3,
-                sd.len(),
+                count(sd.len(), "speed"),
                 t_sd.as_secs_f64()
             )
         }
@@ -156,8 +157,8 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
         Some(p) => {
             out.say(format!("zero-order lobes -> {}", a.out.display()));
             out.say(format!(
-                "semi-discretisation lobes ({} speeds, not the {} of the zero-order method) -> {}",
-                sd.len(),
+                "semi-discretisation lobes ({}, not the {} of the zero-order method) -> {}",
+                count(sd.len(), "speed"),
                 zoa.len(),
                 p.display()
             ));
@@ -179,88 +180,102 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
     Ok(())
 }
 
-/// Where the limit changes lobe between two neighbouring speeds: the chatter frequency
-/// jumps (by more than 1 %) and so does the depth (by more than 15 %). That is the lobe
-/// structure, not a sampling artefact: a new lobe's unstable region begins there as an
-/// island (a tongue whose tip is at that speed; above it the cut is stable again up to
-/// the older lobe), so the lowest unstable depth drops at once.
-pub fn new_lobe_between(a: &LobePoint, b: &LobePoint) -> bool {
-    let (fa, fb) = (a.chatter_hz, b.chatter_hz);
-    let (da, db) = (a.ap_lim_m, b.ap_lim_m);
-    da.is_finite()
-        && db.is_finite()
-        && fa > 0.0
-        && fb > 0.0
-        && (fa / fb).ln().abs() > 0.01_f64.ln_1p()
-        && (da / db).ln().abs() > 0.15_f64.ln_1p()
-}
-
-/// The limits in mm (cut at `top_mm`) with a break (NaN) where a new lobe takes over, so
-/// the plot does not draw a vertical line that no boundary follows.
-fn broken_at_new_lobes(pts: &[LobePoint], top_mm: f64) -> (Vec<f64>, Vec<f64>) {
-    let (mut x, mut y) = (Vec::new(), Vec::new());
-    for (i, p) in pts.iter().enumerate() {
-        if i > 0 && new_lobe_between(&pts[i - 1], p) {
-            x.push(0.5 * (pts[i - 1].rpm + p.rpm));
-            y.push(f64::NAN);
-        }
-        x.push(p.rpm);
-        y.push((p.ap_lim_m * 1e3).min(top_mm));
+/// The depth axis's top \[mm\], from the data: the stable region (below both limits) is
+/// shown whole, with 10 % room above its highest point, unless that point is more than
+/// ten times its lowest (a lobe's asymptote, no chatter found at some speed), when the
+/// axis ends at 11 times the lowest (lobe diagrams are read near their minimum; what
+/// rises higher leaves the plot at the frame, the shading fills to it). A limit above
+/// the region (the other method's lobe tops) leaves the plot at the frame. When neither
+/// method finds chatter anywhere: the highest finite limit, else 10 mm.
+fn depth_top_mm(envelope: &[f64], zoa: &[LobePoint], sd: &[LobePoint]) -> f64 {
+    let finite = |v: &f64| v.is_finite() && *v > 0.0;
+    let (lo, hi) = envelope
+        .iter()
+        .filter(|v| finite(v))
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+            (a.min(v), b.max(v))
+        });
+    let top = if envelope.iter().any(|v| !finite(v)) {
+        // no chatter at some speed: stable up to any depth there
+        10.0 * lo
+    } else {
+        hi.min(10.0 * lo)
+    };
+    let top = if top.is_finite() {
+        top
+    } else {
+        zoa.iter()
+            .chain(sd)
+            .map(|p| p.ap_lim_m * 1e3)
+            .filter(finite)
+            .fold(f64::NEG_INFINITY, f64::max)
+    };
+    if top.is_finite() {
+        1.1 * top
+    } else {
+        10.0
     }
-    (x, y)
 }
 
 /// The lobes plot: the zero-order and semi-discretisation limits, the stable region
-/// (below the lower of the two) shaded, the cut's data in the title. Depths above a few
-/// times the smallest limit (the lobes' tops, `inf` = no chatter) are cut at the top.
+/// (below the lower of the two) shaded, the cut's data in the title; the depth axis from
+/// the data ([`depth_top_mm`]). Each limit is one line over the speeds: where a new lobe
+/// begins as an unstable island between two speeds (its tip), the limit drops there and
+/// the line with it (that drop is the edge of the stable region); `inf` (no chatter
+/// found) breaks the line.
 fn lobes_svg(a: &Args, zoa: &[LobePoint], sd: &[LobePoint]) -> String {
-    let min = zoa
-        .iter()
-        .chain(sd)
-        .map(|p| p.ap_lim_m)
-        .fold(f64::INFINITY, f64::min);
-    let top_mm = if min.is_finite() {
-        6.0 * min * 1e3
-    } else {
-        10.0
+    let mm = |p: &LobePoint| {
+        if p.ap_lim_m.is_finite() {
+            p.ap_lim_m * 1e3
+        } else {
+            f64::NAN
+        }
     };
-    let mm = |p: &LobePoint| (p.ap_lim_m * 1e3).min(top_mm);
     let zx: Vec<f64> = zoa.iter().map(|p| p.rpm).collect();
     let zy: Vec<f64> = zoa.iter().map(mm).collect();
     let sx: Vec<f64> = sd.iter().map(|p| p.rpm).collect();
     let sy: Vec<f64> = sd.iter().map(mm).collect();
-    let (zbx, zby) = broken_at_new_lobes(zoa, top_mm);
-    let (sbx, sby) = broken_at_new_lobes(sd, top_mm);
     // stable region: below the lower limit; on the zero-order grid where SD is on it too
+    // (no chatter found = stable at every depth: up to the frame)
     let same_grid = sd.len() == zoa.len() && sx == zx;
-    let (shx, shy) = if sd.is_empty() || !same_grid {
-        (zx.clone(), zy.clone())
+    let lim = |p: &LobePoint| p.ap_lim_m * 1e3;
+    let envelope: Vec<f64> = if sd.is_empty() || !same_grid {
+        zoa.iter().map(lim).collect()
     } else {
-        (
-            zx.clone(),
-            zy.iter().zip(&sy).map(|(a, b)| a.min(*b)).collect(),
-        )
+        zoa.iter()
+            .zip(sd)
+            .map(|(z, d)| lim(z).min(lim(d)))
+            .collect()
     };
+    let top_mm = depth_top_mm(&envelope, zoa, sd);
+    let shx = zx.clone();
+    let shy: Vec<f64> = envelope.iter().map(|v| v.min(top_mm * 2.0)).collect();
     let mut series = vec![Series {
         label: "zero-order (Altintas–Budak)",
-        x: &zbx,
-        y: &zby,
+        x: &zx,
+        y: &zy,
         color: 2,
         points: false,
     }];
     if !sd.is_empty() {
         series.push(Series {
             label: "semi-discretisation (Insperger–Stépán)",
-            x: &sbx,
-            y: &sby,
+            x: &sx,
+            y: &sy,
             color: 1,
             points: false,
         });
     }
     let title = format!(
-        "Stability lobes at {}: {} teeth, ae/D {:.2} {}, Kt {:.0} N/mm², Kr {:.2}{}",
+        "Stability lobes at {}: {}, D {} mm{}, ae/D {:.2} {}, Kt {:.0} N/mm², Kr {:.2}",
         identify::axis::PoseText(a.at),
-        a.cut.teeth,
+        count(a.cut.teeth, "tooth"),
+        report::eng(a.cut.diameter * 1e3),
+        if a.cut.helix != 0.0 {
+            format!(", helix {:.0}°", a.cut.helix)
+        } else {
+            String::new()
+        },
         a.cut.immersion,
         if a.cut.up {
             "up-milling"
@@ -269,15 +284,6 @@ fn lobes_svg(a: &Args, zoa: &[LobePoint], sd: &[LobePoint]) -> String {
         },
         a.cut.kt * 1e-6,
         a.cut.kr,
-        if a.cut.helix != 0.0 {
-            format!(
-                ", helix {:.0}°, D {:.0} mm",
-                a.cut.helix,
-                a.cut.diameter * 1e3
-            )
-        } else {
-            String::new()
-        }
     );
     report::figure(&report::Figure {
         title: &title,
@@ -286,10 +292,42 @@ fn lobes_svg(a: &Args, zoa: &[LobePoint], sd: &[LobePoint]) -> String {
         xrange: Some((a.rpm_min, a.rpm_max)),
         width: 900,
         panels: &[report::Panel {
-            yrange: Some((0.0, top_mm * 1.02)),
+            yrange: Some((0.0, top_mm)),
             shade: Some((&shx, &shy, "stable (below both limits)")),
-            legend: plotters::chart::SeriesLabelPosition::LowerRight,
             ..report::Panel::new("limiting axial depth of cut [mm]", Scale::Lin, &series, 380)
         }],
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn pts(v: &[f64]) -> Vec<LobePoint> {
+        v.iter()
+            .enumerate()
+            .map(|(i, &ap)| LobePoint {
+                rpm: 1000.0 * (i + 1) as f64,
+                ap_lim_m: ap,
+                chatter_hz: 100.0,
+            })
+            .collect()
+    }
+
+    #[test]
+    fn depth_axis_shows_the_whole_stable_region() {
+        // the envelope's top with 10 % room, not a multiple of the smallest limit
+        let env = [20.0, 200.0, 150.0];
+        let (zoa, sd) = (pts(&[0.02, 0.2, 0.15]), pts(&[0.03, 0.3, 0.15]));
+        assert!((depth_top_mm(&env, &zoa, &sd) - 220.0).abs() < 1e-9);
+        // a lobe top near an asymptote (3 m) or no chatter found does not squash the
+        // diagram: at most 11 times its minimum
+        let env = [20.0, 3000.0, 150.0];
+        assert!((depth_top_mm(&env, &zoa, &sd) - 220.0).abs() < 1e-9);
+        let env = [20.0, f64::INFINITY, 150.0];
+        assert!((depth_top_mm(&env, &zoa, &sd) - 220.0).abs() < 1e-9);
+        // no chatter anywhere: the highest finite limit, else 10 mm
+        let none = pts(&[f64::INFINITY, f64::INFINITY]);
+        assert_eq!(depth_top_mm(&[f64::INFINITY; 2], &none, &none), 10.0);
+    }
 }

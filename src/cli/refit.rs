@@ -102,18 +102,18 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
     }
     if rep.updated {
         out.say(format!(
-            "  {} lines used; simulated response fit after: {:.2} %",
-            rep.lines_hz.len(),
+            "  {} used; simulated response fit after: {:.2} %",
+            identify::axis::count(rep.lines_hz.len(), "line"),
             rep.fit_after_pct
         ));
     }
     if let Some(oe) = &rep.output_error {
         out.say(format!(
-            "  output-error stage: residual {:.2} % -> {:.2} % of the response RMS in {} iterations \
+            "  output-error stage: residual {:.2} % -> {:.2} % of the response RMS in {} \
              (first {:.2} s of each record not fitted); force noise floor {} of the force's median level",
             100.0 * oe.rel_rms_before,
             100.0 * oe.rel_rms_after,
-            oe.iterations,
+            identify::axis::count(oe.iterations, "iteration"),
             oe.skipped_s,
             oe.force_noise_text()
         ));

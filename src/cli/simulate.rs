@@ -70,8 +70,13 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
         .count();
     if outside > 0 {
         out.say(format!(
-            "warning: {outside} samples lie outside the measured poses; the model of the nearest \
-             point of the measured box was used there"
+            "warning: {} outside the measured poses; the model of the nearest \
+             point of the measured box was used there",
+            if outside == 1 {
+                "1 sample lies".to_string()
+            } else {
+                format!("{outside} samples lie")
+            }
         ));
     }
     out.say(format!(

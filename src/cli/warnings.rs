@@ -165,9 +165,9 @@ pub fn summarise(warnings: &[String], verbose: bool) -> Vec<String> {
     }
     let mut lines: Vec<String> = groups.iter().map(group_line).collect();
     lines.push(format!(
-        "({} warnings said in {} lines; --verbose prints each)",
-        warnings.len(),
-        groups.len()
+        "({} said in {}; --verbose prints each)",
+        plural(warnings.len(), "warning", "warnings"),
+        plural(groups.len(), "line", "lines")
     ));
     lines
 }
@@ -210,10 +210,13 @@ fn group_line(g: &Group<'_>) -> String {
         };
         msg = msg.replace(POSE_MARK, &at);
     }
+    let in_sentence = g.first.text.iter().any(|t| t.contains(POSE_MARK));
+    if g.files.is_empty() && in_sentence && g.count == g.poses.len() {
+        // once per pose, and the sentence names the poses: said as it is
+        return format!("warning: {msg}");
+    }
     let scope = match (g.files.len(), g.poses.len()) {
-        (0, _) if g.first.text.iter().any(|t| t.contains(POSE_MARK)) => {
-            plural(g.count, "time", "times")
-        }
+        (0, _) if in_sentence => plural(g.count, "time", "times"),
         (0, 0) => plural(g.count, "time", "times"),
         (0, _) => format!("at {poses}"),
         (f, 0) => plural(f, "record", "records"),
@@ -280,7 +283,7 @@ mod tests {
             .collect();
         assert_eq!(
             summarise(&w, false)[0],
-            "warning: 2 times: POOR FIT at 2 poses, channel yx: fits at 73.0–84.3 % in (48–77)-3040 Hz"
+            "warning: POOR FIT at 2 poses, channel yx: fits at 73.0–84.3 % in (48–77)-3040 Hz"
         );
     }
 

@@ -76,8 +76,69 @@ fn fit_text(f: &ChannelFit) -> String {
     )
 }
 
-/// The modes of one pose: frequency, damping, modal stiffness and mass per channel.
-fn modes_table(model: &ModalModel) -> String {
+/// What a reader should know about mode `k` of a pose fitted in `band` \[Hz\]: a pole pair
+/// outside the band or damped beyond any resonance stands for the modes outside it (a
+/// residual term, not a mode of the structure in the band); two modes within their
+/// half-power bandwidths of each other may be one mode fitted twice. Empty when nothing
+/// is to be said.
+fn mode_note(model: &ModalModel, k: usize, band: [f64; 2]) -> String {
+    let m = &model.modes[k];
+    let f = m.freq_hz();
+    let residual = |o: &Mode| o.freq_hz() < band[0] || o.freq_hz() > band[1] || o.zeta >= 0.3;
+    let mut notes = Vec::new();
+    if f < band[0] || f > band[1] {
+        notes.push(format!(
+            "outside the fitted band {:.0}–{:.0} Hz: a residual term for the modes {}",
+            band[0],
+            band[1],
+            if f < band[0] { "below" } else { "above" }
+        ));
+    } else if m.zeta >= 0.3 {
+        notes.push(format!(
+            "damping {:.0} %: no resonance, a residual term",
+            100.0 * m.zeta
+        ));
+    }
+    // half-power bandwidths 2ζf: closer than the sum of the half widths, the two peaks
+    // are one in the FRF. Two modes of one peak that pull a direct channel in opposite
+    // directions are one resonance fitted twice (the data fix only their sum); two close
+    // modes of one sign in every direct channel are a real pair (an x and a y mode).
+    let constant = |j: usize, ci: usize| {
+        model.channels[ci]
+            .num
+            .get(j)
+            .map_or(0.0, |n| modal_constant(&model.modes[j], n))
+    };
+    let direct: Vec<usize> = (0..model.channels.len())
+        .filter(|&ci| model.channels[ci].channel.output == model.channels[ci].channel.input)
+        .collect();
+    let near: Vec<usize> = model
+        .modes
+        .iter()
+        .enumerate()
+        .filter(|&(j, o)| {
+            j != k
+                && !residual(o)
+                && (o.freq_hz() - f).abs() < m.zeta * f + o.zeta * o.freq_hz()
+                && direct
+                    .iter()
+                    .any(|&ci| constant(k, ci) * constant(j, ci) < 0.0)
+        })
+        .map(|(j, _)| j)
+        .collect();
+    if !near.is_empty() && !residual(m) {
+        notes.push(format!(
+            "within the half-power bandwidth of {}, of opposite sign in a direct channel: \
+             one peak fitted twice (the data fix only their sum)",
+            identify::refit::modes_named(&near)
+        ));
+    }
+    notes.join("; ")
+}
+
+/// The modes of one pose fitted in `band` \[Hz\]: frequency, damping, modal stiffness and
+/// mass per channel, and a note where a mode is not what it seems ([`mode_note`]).
+fn modes_table(model: &ModalModel, band: [f64; 2]) -> String {
     let mut b = String::from("<table><tr><th>mode</th><th>f [Hz]</th><th>ζ [%]</th>");
     for c in &model.channels {
         let _ = write!(
@@ -85,6 +146,13 @@ fn modes_table(model: &ModalModel) -> String {
             "<th>k<sub>{0}</sub> [N/µm]</th><th>m<sub>{0}</sub> [kg]</th>",
             c.channel
         );
+    }
+    let notes: Vec<String> = (0..model.modes.len())
+        .map(|k| mode_note(model, k, band))
+        .collect();
+    let any_note = notes.iter().any(|n| !n.is_empty());
+    if any_note {
+        b.push_str("<th style=\"text-align:left\">note</th>");
     }
     b.push_str("</tr>");
     for (k, m) in model.modes.iter().enumerate() {
@@ -101,6 +169,13 @@ fn modes_table(model: &ModalModel) -> String {
                 stiffness_text(m, n, largest)
             });
             let _ = write!(b, "<td>{ks}</td><td>{ms}</td>");
+        }
+        if any_note {
+            let _ = write!(
+                b,
+                "<td style=\"text-align:left\"><small>{}</small></td>",
+                esc(&notes[k])
+            );
         }
         b.push_str("</tr>");
     }
@@ -468,12 +543,12 @@ pub fn identify_report(twin: &Twin, diagrams: &[StabilizationDiagram], view: Frf
     let mut b = String::new();
     let _ = writeln!(
         b,
-        "<p>Twin <code>{}</code>: {} pose(s), channels {}, interpolation <b>{}</b>. \
+        "<p>Twin <code>{}</code>: {}, channels {}, interpolation <b>{}</b>. \
          Receptance in µm/N; the model is the one stored in the twin (exponential-window \
          damping removed), the measured FRF is the estimate it was fitted to. Modes and \
          poses are numbered from 1.</p>",
         esc(&twin.name),
-        twin.poses.len(),
+        identify::axis::count(twin.poses.len(), "pose"),
         twin.channels
             .iter()
             .map(|c| c.name())
@@ -504,7 +579,11 @@ pub fn identify_report(twin: &Twin, diagrams: &[StabilizationDiagram], view: Frf
             modes_summary(twin)
         );
     } else if let Some(p) = twin.poses.first() {
-        let _ = writeln!(b, "<h2>Identified modes</h2>{}", modes_table(&p.model));
+        let _ = writeln!(
+            b,
+            "<h2>Identified modes</h2>{}",
+            modes_table(&p.model, p.band_hz)
+        );
     }
     let _ = writeln!(
         b,
@@ -659,9 +738,9 @@ pub fn identify_report(twin: &Twin, diagrams: &[StabilizationDiagram], view: Frf
             .join(", ");
         let _ = writeln!(
             b,
-            "<details id=\"pose-{n}\"{open}><summary><b>Pose {n}: {}</b> — {} modes; fit {}</summary>",
+            "<details id=\"pose-{n}\"{open}><summary><b>Pose {n}: {}</b> — {}; fit {}</summary>",
             PoseText(p.pose),
-            p.model.modes.len(),
+            identify::axis::count(p.model.modes.len(), "mode"),
             fits,
             n = i + 1,
             open = if i == 0 { " open" } else { "" }
@@ -671,7 +750,7 @@ pub fn identify_report(twin: &Twin, diagrams: &[StabilizationDiagram], view: Frf
             "<h3>Modes at pose {}</h3>{}<p>Fit per channel: {}.</p>",
             i + 1,
             if twin.poses.len() > 1 {
-                modes_table(&p.model)
+                modes_table(&p.model, p.band_hz)
             } else {
                 "<p>(the table above)</p>".into()
             },

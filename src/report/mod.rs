@@ -23,10 +23,11 @@ pub struct Series<'a> {
     pub points: bool,
 }
 
-/// Eleven distinguishable colours (black, then the ten of matplotlib's `tab10` with red
-/// first): nine modes get nine colours.
+/// Twenty-one distinguishable colours: black, the ten of matplotlib's `tab10` with red
+/// first, then ten darker or purer hues unlike those (navy, maroon, teal, olive, magenta,
+/// lime, gold, pure blue, periwinkle, dark green), so twenty tracked modes get twenty colours.
 fn color(i: usize) -> RGBColor {
-    match i % 11 {
+    match i % 21 {
         0 => RGBColor(20, 20, 20),
         1 => RGBColor(214, 39, 40),
         2 => RGBColor(31, 119, 180),
@@ -37,7 +38,17 @@ fn color(i: usize) -> RGBColor {
         7 => RGBColor(227, 119, 194),
         8 => RGBColor(188, 189, 34),
         9 => RGBColor(23, 190, 207),
-        _ => RGBColor(127, 127, 127),
+        10 => RGBColor(127, 127, 127),
+        11 => RGBColor(0, 0, 128),
+        12 => RGBColor(128, 0, 0),
+        13 => RGBColor(0, 128, 128),
+        14 => RGBColor(128, 128, 0),
+        15 => RGBColor(255, 0, 255),
+        16 => RGBColor(0, 210, 0),
+        17 => RGBColor(255, 215, 0),
+        18 => RGBColor(0, 0, 255),
+        19 => RGBColor(96, 96, 255),
+        _ => RGBColor(0, 90, 0),
     }
 }
 
@@ -197,8 +208,6 @@ pub struct Panel<'a> {
     pub height: u32,
     /// A region shaded from the bottom of the panel up to this curve (x, y, label).
     pub shade: Option<(&'a [f64], &'a [f64], &'a str)>,
-    /// Where the legend goes (upper right unless said).
-    pub legend: SeriesLabelPosition,
 }
 
 impl<'a> Panel<'a> {
@@ -211,7 +220,6 @@ impl<'a> Panel<'a> {
             yrange: None,
             height,
             shade: None,
-            legend: SeriesLabelPosition::UpperRight,
         }
     }
 }
@@ -314,6 +322,91 @@ struct Place<'a> {
     ylog: bool,
 }
 
+/// A polyline with breaks (`None`) cut to the y range `[lo, hi]`: each segment that
+/// leaves the range ends at the frame (found on the axes' own scales, so the cut point
+/// lies on the drawn segment) and the line resumes where it comes back; a line never
+/// runs flat along the frame as if the data were there.
+fn clip_to_y(
+    pts: &[Option<(f64, f64)>],
+    (lo, hi): (f64, f64),
+    xlog: bool,
+    ylog: bool,
+) -> Vec<Vec<(f64, f64)>> {
+    let fwd = |v: f64, log: bool| if log { v.ln() } else { v };
+    let back = |v: f64, log: bool| if log { v.exp() } else { v };
+    let (tlo, thi) = (fwd(lo, ylog), fwd(hi, ylog));
+    let mut runs: Vec<Vec<(f64, f64)>> = vec![Vec::new()];
+    let push = |runs: &mut Vec<Vec<(f64, f64)>>, p: (f64, f64)| {
+        if let Some(r) = runs.last_mut() {
+            if r.last() != Some(&p) {
+                r.push(p);
+            }
+        }
+    };
+    let brk = |runs: &mut Vec<Vec<(f64, f64)>>| {
+        if runs.last().is_some_and(|r| !r.is_empty()) {
+            runs.push(Vec::new());
+        }
+    };
+    let mut prev: Option<(f64, f64)> = None;
+    for p in pts {
+        let Some((x1, y1)) = *p else {
+            brk(&mut runs);
+            prev = None;
+            continue;
+        };
+        let (tx1, ty1) = (fwd(x1, xlog), fwd(y1, ylog));
+        match prev {
+            None => {
+                if (tlo..=thi).contains(&ty1) {
+                    push(&mut runs, (x1, y1));
+                }
+            }
+            Some((tx0, ty0)) => {
+                // the part of the segment inside [tlo, thi] (Liang–Barsky in y)
+                let (mut t0, mut t1) = (0.0f64, 1.0f64);
+                let dy = ty1 - ty0;
+                let mut inside = true;
+                for (q, r) in [(-dy, ty0 - tlo), (dy, thi - ty0)] {
+                    if q == 0.0 {
+                        if r < 0.0 {
+                            inside = false;
+                        }
+                    } else {
+                        let t = r / q;
+                        if q < 0.0 {
+                            t0 = t0.max(t);
+                        } else {
+                            t1 = t1.min(t);
+                        }
+                    }
+                }
+                if inside && t0 <= t1 {
+                    let at = |t: f64| {
+                        (
+                            back(tx0 + t * (tx1 - tx0), xlog),
+                            back(ty0 + t * dy, ylog).clamp(lo, hi),
+                        )
+                    };
+                    if t0 > 0.0 {
+                        brk(&mut runs);
+                    }
+                    push(&mut runs, at(t0));
+                    push(&mut runs, if t1 < 1.0 { at(t1) } else { (x1, y1) });
+                    if t1 < 1.0 {
+                        brk(&mut runs);
+                    }
+                } else {
+                    brk(&mut runs);
+                }
+            }
+        }
+        prev = Some((tx1, ty1));
+    }
+    runs.retain(|r| !r.is_empty());
+    runs
+}
+
 fn draw_panel<'b, X, Y>(area: &Area<'b>, xr: X, yr: Y, panel: &Panel<'_>, place: Place<'_>)
 where
     X: Ranged<ValueType = f64> + ValueFormatter<f64>,
@@ -372,7 +465,7 @@ where
         if let (Some(first), Some(last)) = (pts.first().copied(), pts.last().copied()) {
             pts.push((last.0, ylo));
             pts.push((first.0, ylo));
-            let c = RGBColor(200, 235, 200);
+            let c = SHADE;
             let _ = chart
                 .draw_series(std::iter::once(Polygon::new(pts, c.filled())))
                 .map(|a| {
@@ -400,17 +493,14 @@ where
                 });
             }
         } else {
-            // a break in the data (a NaN or a value off a log axis) breaks the line
-            let mut runs: Vec<Vec<(f64, f64)>> = vec![Vec::new()];
-            for (x, y) in s.x.iter().zip(s.y) {
-                if x.is_finite() && ok(*y) {
-                    if let Some(r) = runs.last_mut() {
-                        r.push((*x, y.clamp(ylo, yhi)));
-                    }
-                } else if runs.last().is_some_and(|r| !r.is_empty()) {
-                    runs.push(Vec::new());
-                }
-            }
+            // a break in the data (a NaN or a value off a log axis) breaks the line; a
+            // line that leaves the y range is cut at the frame
+            let pts: Vec<Option<(f64, f64)>> =
+                s.x.iter()
+                    .zip(s.y)
+                    .map(|(x, y)| (x.is_finite() && ok(*y)).then_some((*x, *y)))
+                    .collect();
+            let runs = clip_to_y(&pts, (ylo, yhi), xlog, ylog);
             let mut first = true;
             for run in runs.into_iter().filter(|r| !r.is_empty()) {
                 let drawn = chart.draw_series(LineSeries::new(run, c.stroke_width(1)));
@@ -424,15 +514,6 @@ where
                 first = false;
             }
         }
-    }
-    if panel.series.iter().any(|s| !s.label.is_empty()) || panel.shade.is_some() {
-        let _ = chart
-            .configure_series_labels()
-            .position(panel.legend.clone())
-            .background_style(WHITE.mix(0.85))
-            .border_style(RGBColor(150, 150, 150))
-            .label_font(("sans-serif", 14))
-            .draw();
     }
 }
 
@@ -461,8 +542,48 @@ where
     }
 }
 
-/// An SVG figure: panels over a shared x axis (linear or log), engineering tick labels.
+/// An SVG figure: panels over a shared x axis (linear or log), engineering tick labels,
+/// the legend in rows under the plot (inside a panel it would cover data).
 pub fn figure(f: &Figure<'_>) -> String {
+    draw_figure(f)
+}
+
+/// The legend entries of a figure's panels: shading first, then the labelled lines, each
+/// label once (a line in the magnitude and the phase panel is one entry).
+fn legend_entries<'a>(f: &'a Figure<'a>) -> Vec<(&'a str, LegendMark)> {
+    let mut out: Vec<(&'a str, LegendMark)> = Vec::new();
+    for p in f.panels {
+        if let Some((_, _, label)) = p.shade {
+            out.push((label, LegendMark::Shade));
+        }
+        for s in p.series.iter().filter(|s| !s.label.is_empty()) {
+            if out.iter().any(|(l, _)| *l == s.label) {
+                continue;
+            }
+            out.push((
+                s.label,
+                if s.points {
+                    LegendMark::Dot(s.color)
+                } else {
+                    LegendMark::Line(s.color)
+                },
+            ));
+        }
+    }
+    out
+}
+
+#[derive(Clone, Copy)]
+enum LegendMark {
+    Shade,
+    Line(usize),
+    Dot(usize),
+}
+
+/// The shading colour of a panel's region.
+const SHADE: RGBColor = RGBColor(200, 235, 200);
+
+fn draw_figure(f: &Figure<'_>) -> String {
     let Some(xr) = f.xrange.or_else(|| {
         data_range(
             f.panels
@@ -478,7 +599,25 @@ pub fn figure(f: &Figure<'_>) -> String {
     } else {
         padded(xr, f.xscale)
     };
-    let height: u32 = f.panels.iter().map(|p| p.height).sum::<u32>() + 30;
+    // the legend's rows: entries left to right, a new row where the next would pass the
+    // right edge (14 px sans-serif: ~7 px a letter)
+    let entries = legend_entries(f);
+    let mut placed: Vec<(i32, u32)> = Vec::new();
+    let (mut x, mut row) = (80i32, 0u32);
+    for (label, _) in &entries {
+        let w = 26 + (label.chars().count() as f64 * 6.8) as i32 + 28;
+        if x + w > f.width as i32 - 8 && x > 80 {
+            (x, row) = (80, row + 1);
+        }
+        placed.push((x, row));
+        x += w;
+    }
+    let legend_h: u32 = if entries.is_empty() {
+        0
+    } else {
+        22 * (row + 1) + 4
+    };
+    let height: u32 = f.panels.iter().map(|p| p.height).sum::<u32>() + 30 + legend_h;
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, (f.width, height)).into_drawing_area();
@@ -514,6 +653,30 @@ pub fn figure(f: &Figure<'_>) -> String {
                 }
                 _ => panel_with_y(&area, RangedCoordf64::from(xr.0..xr.1), yr, p, place),
             }
+        }
+        let top = (height - legend_h) as i32;
+        for ((label, mark), (x, row)) in entries.iter().zip(&placed) {
+            let y = top + 13 + 22 * *row as i32;
+            let x = *x;
+            match *mark {
+                LegendMark::Shade => {
+                    let _ = root.draw(&Rectangle::new(
+                        [(x, y - 6), (x + 20, y + 6)],
+                        SHADE.filled(),
+                    ));
+                }
+                LegendMark::Line(c) => {
+                    let _ = root.draw(&PathElement::new(
+                        vec![(x, y), (x + 20, y)],
+                        color(c).stroke_width(2),
+                    ));
+                }
+                LegendMark::Dot(c) => {
+                    let _ = root.draw(&Circle::new((x + 10, y), 3, color(c).filled()));
+                }
+            }
+            let style = ("sans-serif", 14).into_font().color(&BLACK);
+            let _ = root.draw(&Text::new(label.to_string(), (x + 26, y - 8), style));
         }
         let _ = root.present();
     }
@@ -959,7 +1122,7 @@ pub fn page(title: &str, body: &str) -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::eng;
+    use super::{clip_to_y, eng};
 
     #[test]
     fn engineering_ticks_read_as_written() {
@@ -1034,6 +1197,63 @@ mod tests {
         assert_eq!(x.len(), 5);
         assert!(y[2].is_nan() && x[2] == 2.5, "{x:?} {y:?}");
         assert_eq!(y[3], 178.0);
+    }
+
+    #[test]
+    fn a_line_leaving_the_range_is_cut_at_the_frame() {
+        let p = |x: f64, y: f64| Some((x, y));
+        // up through the top at x = 1.5, back in at x = 3.5: two runs, cut at y = 10
+        let runs = clip_to_y(
+            &[
+                p(0.0, 0.0),
+                p(1.0, 5.0),
+                p(2.0, 15.0),
+                p(3.0, 15.0),
+                p(4.0, 5.0),
+            ],
+            (0.0, 10.0),
+            false,
+            false,
+        );
+        assert_eq!(
+            runs,
+            vec![
+                vec![(0.0, 0.0), (1.0, 5.0), (1.5, 10.0)],
+                vec![(3.5, 10.0), (4.0, 5.0)]
+            ]
+        );
+        // a break stays a break; a point alone above the range draws nothing
+        let runs = clip_to_y(
+            &[p(0.0, 1.0), None, p(1.0, 20.0)],
+            (0.0, 10.0),
+            false,
+            false,
+        );
+        assert_eq!(runs, vec![vec![(0.0, 1.0)]]);
+        // on a log y axis the cut lies on the drawn (straight in log) segment: 1 -> 100
+        // leaves a range up to 10 half way
+        let runs = clip_to_y(&[p(0.0, 1.0), p(2.0, 100.0)], (0.5, 10.0), false, true);
+        assert_eq!(runs.len(), 1);
+        let (x, y) = runs[0][1];
+        assert!(
+            (x - 1.0).abs() < 1e-12 && (y - 10.0).abs() < 1e-9,
+            "{runs:?}"
+        );
+    }
+
+    #[test]
+    fn twenty_tracked_modes_get_twenty_colours() {
+        // modes k = 0..20 are drawn in colour k + 1; black (0) is the measured FRF
+        let c: Vec<_> = (0..=20).map(super::color).collect();
+        for i in 0..c.len() {
+            for j in 0..i {
+                let (a, b) = (c[i], c[j]);
+                let d = (a.0 as i32 - b.0 as i32).abs()
+                    + (a.1 as i32 - b.1 as i32).abs()
+                    + (a.2 as i32 - b.2 as i32).abs();
+                assert!(d > 60, "colours {j} and {i} alike: {b:?} {a:?}");
+            }
+        }
     }
 
     #[test]

@@ -23,10 +23,10 @@ pub fn refit_report(old: &Twin, new: &Twin, rep: &RefitReport, series: &[TimeSer
     let mut b = String::new();
     let _ = writeln!(
         b,
-        "<p>Refit of <code>{}</code> from {} operating record(s) at pose {} \
+        "<p>Refit of <code>{}</code> from {} at pose {} \
          with the <b>{}</b> method. Modes are numbered from 1 (mode 1 = the lowest).</p>",
         esc(&new.name),
-        series.len(),
+        identify::axis::count(series.len(), "operating record"),
         PoseText(rep.pose),
         format!("{:?}", rep.method).to_lowercase()
     );
@@ -80,13 +80,13 @@ pub fn refit_report(old: &Twin, new: &Twin, rep: &RefitReport, series: &[TimeSer
             b,
             "<h2>Output-error stage</h2><p>The modes the cross-spectra moved were refined on the \
              records themselves (no Welch window): output residual {:.2} % → {:.2} % of the response \
-             RMS in {} iterations; the first {:.2} s of each record (the start-up transient) were not \
+             RMS in {}; the first {:.2} s of each record (the start-up transient) were not \
              fitted; estimated force noise floor {} of the force's median spectral level (the fit \
              regresses on the force's conditional expectation, so sensor noise on the force does not \
              bias the damping).</p>",
             100.0 * oe.rel_rms_before,
             100.0 * oe.rel_rms_after,
-            oe.iterations,
+            identify::axis::count(oe.iterations, "iteration"),
             oe.skipped_s,
             oe.force_noise_text()
         );
@@ -365,8 +365,8 @@ fn files_cell(files: &[String]) -> String {
         })
         .collect();
     format!(
-        "<details><summary>{} files{}</summary>{}</details>",
-        files.len(),
+        "<details><summary>{}{}</summary>{}</details>",
+        identify::axis::count(files.len(), "file"),
         if common {
             format!(" in <code>{}</code>", esc(&first))
         } else {
@@ -441,7 +441,9 @@ fn history_section(b: &mut String, twin: &Twin, pose: [f64; 3]) {
             label: l,
             x: &x,
             y,
-            color: k,
+            // mode k in the colour identify.html's tracked modes give it (0 is black,
+            // the measured data's)
+            color: k + 1,
             points: false,
         })
         .collect();

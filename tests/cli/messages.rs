@@ -183,7 +183,17 @@ fn averages_are_named_by_what_they_are() {
 
     let impact = shared_data().join("tryout_gantry/campaign/g00_x.csv");
     let err = stderr(&mtwin(&["frf", s(&impact), "--out", s(&out)]));
-    assert!(err.contains(" hits used"), "{err}");
+    assert!(err.contains(" hits averaged"), "{err}");
+    // the summary says each thing once: the estimator, the line spacing, the hits
+    let line = err
+        .lines()
+        .find(|l| l.contains(" -> "))
+        .expect("summary line");
+    assert_eq!(line.matches("H1").count(), 1, "{line}");
+    assert_eq!(line.matches("hits averaged").count(), 1, "{line}");
+    assert!(!line.contains("used"), "{line}");
+    assert_eq!(line.matches(" Hz").count(), 1, "{line}");
+    assert!(line.contains(" dropped"), "{line}");
 }
 
 #[test]

@@ -70,3 +70,92 @@ fn real_impact_test_from_frf_to_simulation() {
     assert_eq!(lines.next(), Some("t,dx"));
     assert_eq!(lines.count(), 128_000);
 }
+
+/// The report shows what the automatic fit of the real impact record holds that is not a
+/// mode of the structure in the band (issue 22): pole pairs outside the fitted band
+/// (residual terms) and modes within each other's half-power bandwidth (one peak, perhaps
+/// fitted twice) carry a note in the modes table, decided from the twin file itself.
+#[test]
+fn real_impact_report_flags_residual_terms_and_doubled_modes() {
+    let data = shared_data().join("pyfrf_impact_hammer/impact_5hits.csv");
+    let d = tmp();
+    let twin = d.path().join("twin.json");
+    let report = d.path().join("identify.html");
+    let o = mtwin(&[
+        "identify",
+        s(&data),
+        "--out",
+        s(&twin),
+        "--report",
+        s(&report),
+        "-q",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let t: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&twin).unwrap()).unwrap();
+    let pose = &t["poses"][0];
+    let band: Vec<f64> = pose["band_hz"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect();
+    let modes: Vec<(f64, f64)> = pose["model"]["modes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| {
+            let wn = m["wn"].as_f64().unwrap();
+            (
+                wn / (2.0 * std::f64::consts::PI),
+                m["zeta"].as_f64().unwrap(),
+            )
+        })
+        .collect();
+    // the sign of each mode's modal constant in xx (the record's one, direct, channel):
+    // Re of b1·s + b0 at the pole s = −ζωn + iωn√(1−ζ²)
+    let nums = pose["model"]["channels"][0]["num"].as_array().unwrap();
+    let sign: Vec<f64> = pose["model"]["modes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .zip(nums)
+        .map(|(m, n)| {
+            let (wn, z) = (m["wn"].as_f64().unwrap(), m["zeta"].as_f64().unwrap());
+            let re = n["b1"].as_f64().unwrap() * (-z * wn) + n["b0"].as_f64().unwrap();
+            re.signum()
+        })
+        .collect();
+    let html = std::fs::read_to_string(&report).unwrap();
+    let at = html.find("<h2>Identified modes</h2>").expect("modes table");
+    let table = &html[at..at + html[at..].find("</table>").unwrap()];
+    let rows: Vec<&str> = table.split("<tr><td>").skip(1).collect();
+    assert_eq!(rows.len(), modes.len());
+    let residual = |(f, z): (f64, f64)| f < band[0] || f > band[1] || z >= 0.3;
+    let (mut outside, mut doubled) = (0, 0);
+    for (k, &(f, z)) in modes.iter().enumerate() {
+        let row = rows[k];
+        let is_out = f < band[0] || f > band[1];
+        assert_eq!(
+            row.contains("outside the fitted band"),
+            is_out,
+            "mode {} at {f:.1} Hz, band {band:?}: {row}",
+            k + 1
+        );
+        outside += is_out as usize;
+        let near = modes.iter().enumerate().any(|(j, &(g, y))| {
+            j != k && !residual((g, y)) && (g - f).abs() < z * f + y * g && sign[j] * sign[k] < 0.0
+        });
+        let flagged = near && !residual((f, z));
+        assert_eq!(
+            row.contains("half-power bandwidth"),
+            flagged,
+            "mode {} at {f:.1} Hz: {row}",
+            k + 1
+        );
+        doubled += flagged as usize;
+    }
+    // the record's automatic fit has both today; if a better default removes them, the
+    // notes go with them and this count says so
+    eprintln!("{outside} residual terms outside the band, {doubled} modes in a doubled peak");
+}

@@ -343,7 +343,8 @@ def test_model_description_explains_every_variable(built, capsys):
     assert "on the tool" in desc["Fx"] and "relative to the workpiece" in desc["dx"]
     assert "direct" in desc["dx"] and "feedthrough" in desc["dx"]
     assert md.generationDateAndTime and md.generationDateAndTime.endswith("Z")
-    assert f"{len(twin['poses'])} pose(s)" in md.description and "identify" in md.description
+    n = len(twin['poses'])
+    assert (f"{n} poses" if n != 1 else "1 pose") in md.description and "identify" in md.description
     # every output depends on the forces of its channels (residual compliance) and the
     # axis positions; none on a force it has no channel to
     names = [v.name for v in md.modelVariables]

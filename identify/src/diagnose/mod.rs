@@ -427,23 +427,23 @@ pub fn diagnose(
     // the twin's simulation of the held-out parts (scored whole and in bands below)
     let held_out_twin = HeldOut::simulate(|_| twin, &splits)?;
     let fit_before = held_out_twin.fit();
+    // said once: what of each record, and from when (one time when all records agree)
+    let starts: Vec<String> = splits
+        .iter()
+        .map(|s| format!("{:.3} s", s.full.t0 + s.holdout_start as f64 * s.full.dt))
+        .collect();
+    let from = if starts.len() > 1 && starts.iter().all(|t| *t == starts[0]) {
+        format!("from t = {} in each", starts[0])
+    } else {
+        format!("from t = {}", starts.join(", "))
+    };
     let holdout = format!(
-        "held out: {} (the last {} of each record, from t = {})",
+        "held out: {} of each record ({from})",
         if ev.kind == "impact" {
-            "the last hits"
+            "the last hit".to_string()
         } else {
-            "the end"
+            format!("the last {:.0} %", 100.0 * opts.holdout_fraction)
         },
-        if ev.kind == "impact" {
-            "hits".to_string()
-        } else {
-            format!("{:.0} %", 100.0 * opts.holdout_fraction)
-        },
-        splits
-            .iter()
-            .map(|s| format!("{:.3} s", s.full.t0 + s.holdout_start as f64 * s.full.dt))
-            .collect::<Vec<_>>()
-            .join(", ")
     );
     let dt = records[0].dt;
     let mut cands: Vec<Cand> = Vec::new();

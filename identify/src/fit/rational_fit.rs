@@ -200,13 +200,13 @@ pub fn fit_frf(frf: &Frf, opts: &FitOptions) -> Result<FitResult> {
     }
     let _ = writeln!(
         report,
-        "{} lines, {} channel(s), band {:.4}..{:.4} Hz; diagram orders 2..{}: {} physical mode(s){}",
-        prep.n_lines(),
-        prep.channels.len(),
+        "{}, {}, band {:.4}..{:.4} Hz; diagram orders 2..{}: {}{}",
+        crate::axis::count(prep.n_lines(), "line"),
+        crate::axis::count(prep.channels.len(), "channel"),
         prep.band.freqs_hz[0],
         prep.band.freqs_hz[prep.n_lines() - 1],
         diagram.orders.last().map(|o| o.order).unwrap_or(0),
-        diagram.n_physical(),
+        crate::axis::count(diagram.n_physical(), "physical mode"),
         diagram
             .physical
             .iter()
@@ -256,8 +256,8 @@ pub fn fit_frf(frf: &Frf, opts: &FitOptions) -> Result<FitResult> {
     let fit_pct = fit_percentages(&prep, &model);
     let _ = writeln!(
         report,
-        "final: {} modes, relative weighted error {:.3e}, fit {}",
-        model.modes.len(),
+        "final: {}, relative weighted error {:.3e}, fit {}",
+        crate::axis::count(model.modes.len(), "mode"),
         (sol.cost / energy).sqrt(),
         fit_pct
             .iter()
@@ -583,13 +583,17 @@ fn auto_order(
     if let Some(nf) = noise {
         let _ = writeln!(
             report,
-            "automatic order: {} modes (noise floor from coherence {:.3e}, residual {:.3e})",
-            best.modes.len(),
+            "automatic order: {} (noise floor from coherence {:.3e}, residual {:.3e})",
+            crate::axis::count(best.modes.len(), "mode"),
             (nf / energy).sqrt(),
             rel(&best)
         );
     } else {
-        let _ = writeln!(report, "automatic order: {} modes", best.modes.len());
+        let _ = writeln!(
+            report,
+            "automatic order: {}",
+            crate::axis::count(best.modes.len(), "mode")
+        );
     }
     Ok(best)
 }

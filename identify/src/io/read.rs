@@ -531,7 +531,7 @@ impl Header {
                 file,
                 n,
                 None,
-                format!("this row has {count} cells but the header (line {}) has {ncol} columns; every row needs exactly one value per column", self.line),
+                format!("this row has {} but the header (line {}) has {}; every row needs exactly one value per column", crate::axis::count(count, "cell"), self.line, crate::axis::count(ncol, "column")),
             ));
         }
         Ok(())
@@ -563,7 +563,10 @@ fn check_row_count(file: &Path, header: &Header, n: usize) -> Result<()> {
             file,
             0,
             None,
-            format!("only {n} samples; a record needs at least {MIN_SAMPLES} (measure longer)"),
+            format!(
+                "only {}; a record needs at least {MIN_SAMPLES} (measure longer)",
+                crate::axis::count(n, "sample")
+            ),
         ));
     }
     Ok(())
@@ -943,7 +946,7 @@ pub fn parse_frf_csv(text: &str, source: &Path) -> Result<Frf> {
                 file,
                 n,
                 None,
-                format!("this row has {count} cells but the header (line {header_line}) has {} columns; every row needs one value per column", names.len()),
+                format!("this row has {} but the header (line {header_line}) has {}; every row needs one value per column", crate::axis::count(count, "cell"), crate::axis::count(names.len(), "column")),
             ));
         }
         let f = row[0];

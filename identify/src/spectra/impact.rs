@@ -198,8 +198,9 @@ pub(super) fn estimate(
     let df = 1.0 / (n as f64 * ctx.dt);
     let used: usize = accs.iter().map(|a| a.averages).sum();
     let method = format!(
-        "{:?}, impact: {used} hits averaged, record {n} samples, force window{}, df {df:.4} Hz",
+        "{:?}, impact: {} averaged, record {n} samples, force window{}, df {df:.4} Hz",
         ctx.opts.estimator,
+        crate::axis::count(used, "hit"),
         if sigma > 0.0 {
             format!(" + exponential window sigma {sigma:.3} 1/s (estimate = H(s + sigma))")
         } else {

@@ -1,9 +1,12 @@
 //! Semi-discretisation lobes: against a brute-force time simulation of the delay
-//! equation, against ZOA in slotting, and the flip lobes of low immersion.
+//! equation, against ZOA in slotting, and the flip lobes of low immersion; on the demo's
+//! machine: every limit the first unstable depth, its flip lobe against a time
+//! simulation, and SD = ZOA at every speed where the zero-order average is exact.
 
 use identify::axis::{Axis, Channel};
 use identify::lobes::{floquet_sd, lobes_sd, lobes_zoa, stable_sd, Cut, SdOptions, Tool};
 use identify::model::{ChannelModel, ModalModel, Mode, ModeNum};
+use rayon::prelude::*;
 use std::f64::consts::PI;
 
 // Insperger & Stépán's 1-DOF milling benchmark (IJNME 2004; Ding et al. 2010):
@@ -459,4 +462,154 @@ fn helix_matches_brute_force() {
         );
         assert!(below < 0.5 && above > 2.0, "rpm {rpm}: {below} {above}");
     }
+}
+
+/// The demo's virtual machine at its centre (9 modes, 62–1380 Hz, x and y with cross
+/// channels), as `mtwin demo` draws its lobes.
+fn demo_machine() -> ModalModel {
+    let m = vmachine::structure::ModalMachine::default_machine();
+    m.model_at(m.center(), &[Axis::X, Axis::Y])
+}
+
+/// The demo's cut: 3 teeth, half immersion down milling, Kt 600 N/mm², Kr 0.3.
+fn demo_cut() -> (Tool, Cut) {
+    (
+        Tool {
+            teeth: 3,
+            diameter_m: 0.016,
+            helix_deg: 0.0,
+        },
+        Cut {
+            radial_immersion: 0.5,
+            down_milling: true,
+            kt: 6e8,
+            kr: 0.3,
+        },
+    )
+}
+
+#[test]
+fn demo_machine_every_sd_limit_is_the_first_unstable_depth() {
+    // where the issue saw the limit jump (3024 rpm 104 mm, 3207 rpm 22 mm): each limit is
+    // checked from the definition, the spectral radius on a grid of depths under it
+    let model = demo_machine();
+    let (tool, cut) = demo_cut();
+    let rpm = identify::lobes::log_speeds(2500.0, 5000.0, 36);
+    let sd = lobes_sd(&model, &tool, &cut, &rpm, &opts(40)).unwrap();
+    let rho = |rpm: f64, ap: f64| {
+        floquet_sd(&model, &tool, &cut, rpm, ap, &opts(40))
+            .unwrap()
+            .spectral_radius
+    };
+    let bad: Vec<String> = sd
+        .par_iter()
+        .filter_map(|p| {
+            assert!(p.ap_lim_m.is_finite(), "{p:?}");
+            let n = 48;
+            let below = (1..n)
+                .map(|j| p.ap_lim_m * j as f64 / n as f64)
+                .find(|&a| rho(p.rpm, a) >= 1.0);
+            let above = rho(p.rpm, 1.01 * p.ap_lim_m);
+            (below.is_some() || above < 1.0).then(|| {
+                format!(
+                    "{:.0} rpm, limit {:.2} mm: unstable at {:?} mm below it, ρ {above:.4} above",
+                    p.rpm,
+                    p.ap_lim_m * 1e3,
+                    below.map(|a| a * 1e3)
+                )
+            })
+        })
+        .collect();
+    assert!(bad.is_empty(), "{bad:#?}");
+    // the structure the plot shows: the limit drops where a new lobe's island begins
+    // (the chatter frequency changes with it), by 2x at least once in this range
+    let drops = sd
+        .windows(2)
+        .filter(|w| {
+            let (a, b) = (w[0], w[1]);
+            (a.ap_lim_m / b.ap_lim_m).ln().abs() > 2f64.ln()
+                && (a.chatter_hz / b.chatter_hz).ln().abs() > 0.01
+        })
+        .count();
+    assert!(drops >= 1, "{sd:#?}");
+}
+
+#[test]
+fn demo_machine_flip_lobe_matches_a_time_simulation() {
+    // around 4000 rpm the teeth pass at 200 Hz, twice the 95 Hz mode: a flip lobe
+    // (period doubling) that the zero-order average does not have
+    let model = demo_machine();
+    let (tool, cut) = demo_cut();
+    let rpm = 4000.0;
+    let sd = lobes_sd(&model, &tool, &cut, &[rpm], &opts(40)).unwrap()[0];
+    let zoa = lobes_zoa(&model, &tool, &cut, &[rpm]).unwrap()[0];
+    let fl = floquet_sd(&model, &tool, &cut, rpm, 1.02 * sd.ap_lim_m, &opts(40)).unwrap();
+    eprintln!(
+        "4000 rpm: sd {:.2} mm @ {:.2} Hz (multiplier {:.4}), zoa {:.2} mm @ {:.2} Hz",
+        sd.ap_lim_m * 1e3,
+        sd.chatter_hz,
+        fl.multiplier,
+        zoa.ap_lim_m * 1e3,
+        zoa.chatter_hz
+    );
+    assert!(
+        fl.multiplier.re < -1.0 && fl.multiplier.im.abs() < 1e-6,
+        "not a flip: {}",
+        fl.multiplier
+    );
+    assert!(
+        (sd.chatter_hz - rpm * 3.0 / 120.0).abs() < 1e-6 * rpm,
+        "{sd:?}"
+    );
+    assert!(zoa.ap_lim_m > 2.0 * sd.ap_lim_m, "{zoa:?} vs {sd:?}");
+    let below = growth_2d(&model, &tool, &cut, rpm, 0.9 * sd.ap_lim_m, 200);
+    let above = growth_2d(&model, &tool, &cut, rpm, 1.1 * sd.ap_lim_m, 200);
+    let between = growth_2d(&model, &tool, &cut, rpm, 0.5 * zoa.ap_lim_m, 200);
+    eprintln!("growth at 0.9 sd {below:.3e}, 1.1 sd {above:.3e}, half the zoa limit {between:.3e}");
+    assert!(below < 0.5 && above > 2.0, "{below} {above}");
+    // half the zero-order limit, which the zero-order method calls stable, chatters
+    assert!(between > 2.0, "{between}");
+}
+
+#[test]
+fn four_tooth_slotting_sd_equals_zoa_at_every_speed() {
+    // slotting with 4 teeth: two teeth always cut, their directional terms in 2φ cancel
+    // and A(t) = A0 at all times; the zero-order method is then exact and the
+    // semi-discretisation must agree with it at every speed, minima and pockets alike
+    // (no flip lobes), and neither jumps between neighbouring speeds of one lobe
+    let model = demo_machine();
+    let tool = Tool {
+        teeth: 4,
+        diameter_m: 0.016,
+        helix_deg: 0.0,
+    };
+    let cut = Cut {
+        radial_immersion: 1.0,
+        down_milling: true,
+        kt: 6e8,
+        kr: 0.3,
+    };
+    let rpm = identify::lobes::log_speeds(2000.0, 20000.0, 60);
+    let zoa = lobes_zoa(&model, &tool, &cut, &rpm).unwrap();
+    let sd = lobes_sd(&model, &tool, &cut, &rpm, &opts(40)).unwrap();
+    let mut worst = 0.0f64;
+    for (z, d) in zoa.iter().zip(&sd) {
+        let rel = (d.ap_lim_m / z.ap_lim_m - 1.0).abs();
+        worst = worst.max(rel);
+        assert!(
+            rel < 0.015,
+            "{:.0} rpm: zoa {:.3} mm @ {:.1} Hz, sd {:.3} mm @ {:.1} Hz",
+            z.rpm,
+            z.ap_lim_m * 1e3,
+            z.chatter_hz,
+            d.ap_lim_m * 1e3,
+            d.chatter_hz
+        );
+    }
+    eprintln!("4-tooth slotting, 60 speeds 2000-20000 rpm: worst |sd/zoa - 1| {worst:.4}");
+    // the overall minimum (the depth stable at any speed) agrees to 1 %
+    let min = |v: &[identify::lobes::LobePoint]| {
+        v.iter().map(|p| p.ap_lim_m).fold(f64::INFINITY, f64::min)
+    };
+    assert!((min(&sd) / min(&zoa) - 1.0).abs() < 0.01);
 }

@@ -89,6 +89,9 @@ fn worn_mode_seen_in_milling_at_three_speeds_both_methods() {
         if method != RefitMethod::Paper {
             // mtwin's update frees only what changed
             assert_eq!(rep.modes.len(), 1, "{:?}", rep.modes);
+            // and the history says so in English (issue 22: "1 modes changed")
+            let summary = &new.history.last().unwrap().summary;
+            assert!(summary.ends_with(", 1 mode changed"), "{summary}");
         }
     }
 }
