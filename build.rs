@@ -19,8 +19,6 @@ fn main() {
         "fmu/Cargo.toml",
         "core/src",
         "core/Cargo.toml",
-        "modelDescription/src",
-        "modelDescription/Cargo.toml",
         "Cargo.lock",
     ] {
         println!("cargo::rerun-if-changed={p}");

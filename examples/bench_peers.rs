@@ -410,7 +410,7 @@ fn case_f(dir: &Path, machine: &ModalMachine) -> Res<Value> {
     let twin = machine.exact_twin([3, 3, 2], &axes);
     let worn = machine.clone().with_stiffness_change(2, 0.85);
     let c = machine.center();
-    // the records of identify/tests/refit_truth.rs
+    // the records of identify/tests/refit/truth.rs
     let recs = milling_at_centre(&worn, &[2400.0, 3300.0, 4500.0], 15.0, 7);
     let band = (30.0, 1500.0);
     let freqs: Vec<f64> = (0..=1000)

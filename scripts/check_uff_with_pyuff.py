@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Checks that pyuff reads the universal files written by mtwin (identify::uff).
 
-    cargo test -p identify --test uff writer_output_for_pyuff   # writes the files
+    cargo test -p identify --test identify io::uff::writer_output_for_pyuff   # writes the files
     /tmp/uffvenv/bin/python scripts/check_uff_with_pyuff.py [DIR]
 
 DIR defaults to $TMPDIR/mtwin_uff_check (``ascii.uff``, ``binary.uff``, ``values.json``,

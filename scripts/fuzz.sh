@@ -3,7 +3,7 @@
 # split evenly over the targets:
 #
 #   readers:timeseries  readers:frf_csv  readers:uff  readers:twin
-#       identify/tests/fuzz_readers.rs (arbitrary bytes + mutated valid files), rerun
+#       identify/tests/io/fuzz_readers.rs (arbitrary bytes + mutated valid files), rerun
 #       with fresh random seeds and PROPTEST_CASES doubling from round to round
 #   fmu:c_api
 #       fmu/tests/ffi.rs c_api_survives_misuse_and_random_call_sequences and its FMI 3.0
@@ -12,7 +12,7 @@
 #
 # Appends one line per target to fuzz/LOG.md (date, target, seconds, inputs tried,
 # failures). The output of a failing round is kept in fuzz/failures/; proptest also
-# records the failing seed in identify/tests/fuzz_readers.proptest-regressions.
+# records the failing seed in identify/tests/io/fuzz_readers.proptest-regressions.
 #
 # Usage: scripts/fuzz.sh [BUDGET_SECONDS]
 set -euo pipefail
@@ -40,7 +40,7 @@ EOF
 fi
 
 echo "building the fuzz targets ..." >&2
-cargo test -q -p identify --test fuzz_readers --no-run 2>/dev/null
+cargo test -q -p identify --test identify --no-run 2>/dev/null
 cargo test -q -p mtwin-fmu --test ffi --no-run 2>/dev/null
 
 targets=(readers:timeseries readers:frf_csv readers:uff readers:twin fmu:c_api)
@@ -51,10 +51,10 @@ seed() { od -An -N8 -tx8 /dev/urandom | tr -d ' \n'; }
 
 for target in "${targets[@]}"; do
     case $target in
-    readers:timeseries) filter=timeseries_ ;;
-    readers:frf_csv) filter=frf_csv_ ;;
-    readers:uff) filter=uff_ ;;
-    readers:twin) filter=twin_ ;;
+    readers:timeseries) filter=io::fuzz_readers::timeseries_ ;;
+    readers:frf_csv) filter=io::fuzz_readers::frf_csv_ ;;
+    readers:uff) filter=io::fuzz_readers::uff_ ;;
+    readers:twin) filter=io::fuzz_readers::twin_ ;;
     fmu:c_api) filter=c_api_survives ;;
     esac
     if [[ $target == fmu:* ]]; then n=200000; else n=2000; fi
@@ -75,7 +75,7 @@ for target in "${targets[@]}"; do
             per_round=$n
         else
             PROPTEST_CASES=$n timeout $((left + 30)) \
-                cargo test -q -p identify --test fuzz_readers "$filter" >"$out" 2>&1 || rc=$?
+                cargo test -q -p identify --test identify "$filter" >"$out" 2>&1 || rc=$?
             per_round=$((2 * n)) # an arbitrary-bytes and a mutation property
         fi
         took=$(($(date +%s) - t0))

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Writes the pyuff-made universal-file fixtures of identify/tests/uff.rs.
+"""Writes the pyuff-made universal-file fixtures of identify/tests/io/uff.rs.
 
 Run once (the generated files are checked in; the Rust tests need no Python):
 

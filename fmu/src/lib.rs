@@ -14,16 +14,14 @@
 //!
 //! The same library is also the milling process's FMU ([`process`]: the regenerative
 //! force model with its delay line, inputs `dx`, `dy`, outputs `Fx`, `Fy`); the resource
-//! an FMU carries decides which model an instance evaluates ([`model`]). [`ssp`] packages
-//! both FMUs with a `SystemStructure.ssd` that wires them (SSP 1.0).
+//! an FMU carries decides which model an instance evaluates ([`model`]): the lean twin of
+//! [`resources`] (pose models, no FRFs or history) or the cut. No global state: instances
+//! are independent.
 //!
-//! [`export::export_fmu`] packages a twin as an FMI 2.0 `.fmu` (zip with
-//! `modelDescription.xml`, `binaries/linux64/mtwin_tcp.so`, `resources/twin.json`),
-//! [`export::export_fmu_as`] as either version (FMI 3.0: `binaries/x86_64-linux/`); the
-//! resource is the lean twin of [`resources`] (pose models, no FRFs or history). No global
-//! state: instances are independent.
+//! This crate is the slave only: it links `mtwin-core` and nothing of the identification.
+//! Packaging (`modelDescription.xml`, the zip, the SSP) is the `mtwin-package` crate
+//! beside the command line.
 
-pub mod export;
 #[allow(missing_docs)]
 mod exports;
 #[allow(missing_docs)]
@@ -33,7 +31,6 @@ pub mod model;
 pub mod process;
 pub mod resources;
 pub mod slave;
-pub mod ssp;
 mod trampoline;
 
 pub use trampoline::resource_dir;

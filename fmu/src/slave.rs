@@ -70,7 +70,7 @@ pub fn start_pose(lo: &[f64; 3], hi: &[f64; 3]) -> [f64; 3] {
 
 /// A position in m as a person writes it: to the micrometre, without the rounding
 /// noise of the pose arithmetic (0.6000000000000694 -> 0.6).
-pub(crate) fn metres(v: f64) -> f64 {
+pub fn metres(v: f64) -> f64 {
     (v * 1e6).round() / 1e6
 }
 

@@ -13,7 +13,7 @@ use mtwin_core::axis::Axis;
 use mtwin_core::interpolate::{simulate_twin, TwinEvaluator};
 use mtwin_core::simulate::Hold;
 use mtwin_core::twin::Twin;
-use mtwin_fmu::export::{export_fmu_as, FmiVersion};
+use mtwin_package::export::{export_fmu_as, FmiVersion};
 use std::path::{Path, PathBuf};
 use vmachine::structure::ModalMachine;
 

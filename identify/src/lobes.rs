@@ -27,7 +27,7 @@
 //!   `ap` limit by a bracketed root search on `ln ρ(ap)` started from the ZOA value.
 //!   See [`SdOptions`] for the exact variant.
 //!
-//! Accuracy of the semi-discretisation (tests `identify/tests/lobes_sd.rs`): second order
+//! Accuracy of the semi-discretisation (tests `identify/tests/lobes/sd.rs`): second order
 //! in the step; with ~2.5 vibration periods per tooth period the limit is within ~3 % at
 //! `steps = 40`, ~0.7 % at 80, ~0.2 % at 160. Its spectral radius matches the growth
 //! factor of a brute-force time simulation of the delay equation to < 0.5 %. Cost: one

@@ -22,7 +22,7 @@ use identify::simulate::Hold;
 use identify::spectra::{estimate_frf, Estimator, Excitation, FrfOptions};
 use identify::timeseries::TimeSeries;
 use identify::twin::Twin;
-use mtwin_fmu::export::{export_fmu_as, FmiVersion};
+use mtwin_package::export::{export_fmu_as, FmiVersion};
 use num_complex::Complex64;
 use numpy::ndarray::{Array2, Array3};
 use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1, PyUntypedArray, PyUntypedArrayMethods};

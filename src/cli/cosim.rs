@@ -5,7 +5,8 @@ use super::export::{sizes, EMBEDDED_SLAVE};
 use super::{check_output_not_input, parse_pose, Output};
 use anyhow::Result;
 use identify::twin::Twin;
-use mtwin_fmu::process::{export_process_fmu, Cut};
+use mtwin_fmu::process::Cut;
+use mtwin_package::process::export_process_fmu;
 use std::path::PathBuf;
 
 /// The tool and the cut (shared by `lobes`, `process-fmu` and `ssp`).
@@ -128,7 +129,7 @@ pub fn run_ssp(a: SspArgs, out: &Output) -> Result<()> {
     let twin = Twin::load(&a.twin)?;
     let cut = a.process.cut();
     let (ts, cs) =
-        mtwin_fmu::ssp::export_ssp(&twin, a.at, &cut, a.stop_time, &a.out, EMBEDDED_SLAVE)?;
+        mtwin_package::ssp::export_ssp(&twin, a.at, &cut, a.stop_time, &a.out, EMBEDDED_SLAVE)?;
     out.say(format!(
         "SSP (SystemStructure.ssd: twin dx, dy -> cut; cut Fx, Fy -> twin; pose {} and the \
          cut's parameters bound) -> {}",

@@ -3,7 +3,7 @@
 use super::Output;
 use anyhow::Result;
 use identify::twin::Twin;
-use mtwin_fmu::export::{FmiVersion, FmuSize};
+use mtwin_package::export::{FmiVersion, FmuSize};
 use std::path::{Path, PathBuf};
 
 /// Arguments of `mtwin export`.
@@ -37,7 +37,7 @@ pub fn export(twin: &Twin, out: &Path) -> Result<FmuSize> {
 
 /// Writes the FMU of `twin` in FMI `version` to `out`; returns its sizes.
 pub fn export_as(twin: &Twin, out: &Path, version: FmiVersion) -> Result<FmuSize> {
-    Ok(mtwin_fmu::export::export_fmu_as(
+    Ok(mtwin_package::export::export_fmu_as(
         twin,
         out,
         EMBEDDED_SLAVE,
@@ -80,7 +80,7 @@ pub fn slave_source() -> String {
     if EMBEDDED_SLAVE.is_some() && std::env::var_os("MTWIN_FMU_LIB").is_none() {
         return "embedded".into();
     }
-    mtwin_fmu::export::find_library()
+    mtwin_package::export::find_library()
         .map(|p| p.display().to_string())
         .unwrap_or_else(|e| e.to_string())
 }

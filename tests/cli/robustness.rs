@@ -22,7 +22,7 @@
 //! a few combined corners. The table goes to stderr; every failure is listed at once.
 //! A cell flagged `known_failure` is printed as KNOWN FAIL instead of failing the test.
 //!
-//! `cargo test --release --test cli_robustness -- --nocapture`
+//! `cargo test --release --test cli robustness:: -- --nocapture`
 
 use crate::common::{mtwin, s, stderr, tmp};
 use identify::axis::{Axis, Channel};

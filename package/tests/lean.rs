@@ -6,9 +6,9 @@
 use model_description::ModelDescription;
 use mtwin_core::axis::Axis;
 use mtwin_core::twin::{HistoryEntry, Twin};
-use mtwin_fmu::export::{export_fmu_with, model_description, FmuSize};
 use mtwin_fmu::resources::{FmuTwin, FMU_TWIN_SCHEMA};
 use mtwin_fmu::slave::Slave;
+use mtwin_package::export::{export_fmu_with, model_description, FmuSize};
 use std::io::Read;
 use std::path::Path;
 use vmachine::structure::ModalMachine;
@@ -291,7 +291,7 @@ fn leaving_the_measured_box_warns_once_per_excursion() {
 #[test]
 fn fmi3_model_description_carries_the_fmi2_variable_table() {
     use model_description::fmi3;
-    use mtwin_fmu::export::{export_fmu_as, model_description_xml, FmiVersion};
+    use mtwin_package::export::{export_fmu_as, model_description_xml, FmiVersion};
     let twin = campaign_twin();
     let md2 =
         ModelDescription::from_xml(&model_description_xml(&twin, FmiVersion::V2).unwrap()).unwrap();

@@ -4,9 +4,10 @@
 //! `resources/twin.fmu` and `resources/cut.fmu`.
 
 use crate::export::{export_fmu_with, FmuSize};
-use crate::process::{export_process_fmu, param_names, Cut};
-use crate::slave::{variables, Var};
+use crate::process::export_process_fmu;
 use mtwin_core::twin::Twin;
+use mtwin_fmu::process::{param_names, Cut};
+use mtwin_fmu::slave::{variables, Var};
 use quick_xml::events::{BytesDecl, Event};
 use quick_xml::Writer;
 use std::io::Write;
@@ -56,7 +57,7 @@ pub fn system_structure(twin: &Twin, pose: [f64; 3], cut: &Cut, stop_time: f64) 
         .filter(|(n, _)| twin_connectors(twin).iter().any(|c| c.0 == **n))
         .map(|(n, v)| (n.to_string(), v))
         .collect();
-    let cut_params: Vec<(String, f64)> = crate::process::param_values(cut);
+    let cut_params: Vec<(String, f64)> = mtwin_fmu::process::param_values(cut);
     let component = |w: &mut Writer<Vec<u8>>,
                      name: &str,
                      source: &str,

@@ -7,14 +7,14 @@
 //! (its build script builds it; see [`export_fmu_with`]), so an installed binary
 //! (`cargo install --path .`) needs nothing next to it.
 
-use crate::resources::{utc_iso, FmuTwin};
-use crate::slave::{metres, start_pose, variables, Var};
 use model_description::{
     BaseUnit, Category, DefaultExperiment, LogCategories, ModelDescription, Real, Unit,
     UnitDefinitions,
 };
 use mtwin_core::axis::Axis;
 use mtwin_core::twin::Twin;
+use mtwin_fmu::resources::{utc_iso, FmuTwin};
+use mtwin_fmu::slave::{metres, start_pose, variables, Var};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -354,7 +354,7 @@ fn library(embedded: Option<&[u8]>) -> Result<std::borrow::Cow<'_, [u8]>, mtwin_
 
 /// Writes an FMU (zip) to `out` atomically: `modelDescription.xml`, the slave library at
 /// `binary` (e.g. `binaries/linux64/<identifier>.so`) and the `resources` files.
-pub(crate) fn package(
+pub fn package(
     out: &Path,
     xml: &str,
     binary: &str,
