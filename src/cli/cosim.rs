@@ -2,9 +2,8 @@
 //! and an SSP package wiring it to the twin FMU.
 
 use super::export::{sizes, EMBEDDED_SLAVE};
-use super::{check_output_not_input, parse_pose, Output};
+use super::Output;
 use anyhow::Result;
-use identify::twin::Twin;
 use mtwin_fmu::process::Cut;
 use mtwin_package::process::export_process_fmu;
 use std::path::PathBuf;
@@ -90,12 +89,8 @@ pub struct FmuArgs {
 /// Arguments of `mtwin ssp`.
 #[derive(Debug, clap::Args)]
 pub struct SspArgs {
-    /// The twin file.
-    #[arg(long)]
-    pub twin: PathBuf,
-    /// Pose X,Y,Z in metres of the cut (the twin FMU's x, y, z).
-    #[arg(long, value_parser = parse_pose, allow_hyphen_values = true)]
-    pub at: [f64; 3],
+    #[command(flatten)]
+    pub pose: super::TwinAt,
     #[command(flatten)]
     pub process: ProcessArgs,
     /// Stop time of the default experiment, in s.
@@ -125,22 +120,27 @@ pub fn run_fmu(a: FmuArgs, out: &Output) -> Result<()> {
 
 /// Runs `mtwin ssp`.
 pub fn run_ssp(a: SspArgs, out: &Output) -> Result<()> {
-    check_output_not_input(&a.out, std::slice::from_ref(&a.twin))?;
-    let twin = Twin::load(&a.twin)?;
+    let twin = a.pose.load(&a.out)?;
     let cut = a.process.cut();
-    let (ts, cs) =
-        mtwin_package::ssp::export_ssp(&twin, a.at, &cut, a.stop_time, &a.out, EMBEDDED_SLAVE)?;
+    let (ts, cs) = mtwin_package::ssp::export_ssp(
+        &twin,
+        a.pose.at,
+        &cut,
+        a.stop_time,
+        &a.out,
+        EMBEDDED_SLAVE,
+    )?;
     out.say(format!(
         "SSP (SystemStructure.ssd: twin dx, dy -> cut; cut Fx, Fy -> twin; pose {} and the \
          cut's parameters bound) -> {}",
-        identify::axis::PoseText(a.at),
+        identify::axis::PoseText(a.pose.at),
         a.out.display()
     ));
     out.say(format!("  twin FMU {}", sizes(&ts)));
     out.say(format!("  process FMU {}", sizes(&cs)));
     out.json(&serde_json::json!({
         "out": a.out,
-        "pose": a.at,
+        "pose": a.pose.at,
         "cut": cut,
         "twin_fmu_bytes": ts.fmu,
         "process_fmu_bytes": cs.fmu,

@@ -399,8 +399,10 @@ impl Demo<'_> {
         ] {
             let r = lobes::run(
                 lobes::Args {
-                    twin: tw.to_path_buf(),
-                    at,
+                    pose: super::TwinAt {
+                        twin: tw.to_path_buf(),
+                        at,
+                    },
                     out: self.dir.join(format!("{name}.csv")),
                     cut: super::cosim::CutArgs {
                         teeth: 3,

@@ -1,21 +1,16 @@
 //! `mtwin eval`.
 
-use super::{parse_pose, BadInput, Output};
+use super::{BadInput, Output};
 use anyhow::Result;
 use identify::frf::Frf;
 use identify::interpolate::TwinEvaluator;
-use identify::twin::Twin;
 use std::path::PathBuf;
 
 /// Arguments of `mtwin eval`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// The twin file.
-    #[arg(long)]
-    pub twin: PathBuf,
-    /// Pose X,Y,Z in metres.
-    #[arg(long, value_parser = parse_pose, allow_hyphen_values = true)]
-    pub at: [f64; 3],
+    #[command(flatten)]
+    pub pose: super::TwinAt,
     /// Output FRF (receptance, m/N): FRF CSV, or Universal File Format dataset 58 when
     /// the name ends in `.uff` or `.unv`.
     #[arg(long)]
@@ -74,8 +69,7 @@ fn read_freqs(path: &PathBuf) -> Result<Vec<f64>> {
 
 /// Runs `mtwin eval`.
 pub fn run(a: Args, out: &Output) -> Result<()> {
-    super::check_output_not_input(&a.out, std::slice::from_ref(&a.twin))?;
-    let twin = Twin::load(&a.twin)?;
+    let twin = a.pose.load(&a.out)?;
     let mut ev = TwinEvaluator::new(&twin)?;
     let freqs = match &a.freqs {
         Some(p) => read_freqs(p)?,
@@ -101,24 +95,24 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
                 .collect()
         }
     };
-    let inside = ev.is_inside(a.at);
+    let inside = ev.is_inside(a.pose.at);
     if !inside {
         let (lo, hi) = ev.bounds();
         out.say(format!(
             "warning: pose {} is outside the measured box {}..{}: the model of the nearest \
              point of the box is used (no extrapolation)",
-            identify::axis::PoseText(a.at),
+            identify::axis::PoseText(a.pose.at),
             identify::axis::PoseText(lo),
             identify::axis::PoseText(hi)
         ));
     }
-    let model = ev.model_at(a.at).clone();
+    let model = ev.model_at(a.pose.at).clone();
     let frf: Frf = model.frf(&freqs);
     let format = identify::io::measured::write_frf(&a.out, &frf, a.uff_binary)?;
     out.say(format!(
         "FRF of {} at {} ({} {:.1}-{:.1} Hz, {}) -> {} ({format})",
         identify::axis::count(frf.channels.len(), "channel"),
-        identify::axis::PoseText(a.at),
+        identify::axis::PoseText(a.pose.at),
         identify::axis::count(freqs.len(), "line"),
         freqs[0],
         freqs[freqs.len() - 1],
@@ -130,7 +124,7 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
         a.out.display()
     ));
     out.json(&serde_json::json!({
-        "out": a.out, "pose": a.at, "inside_measured_box": inside,
+        "out": a.out, "pose": a.pose.at, "inside_measured_box": inside,
         "method": twin.interpolation.method,
         "natural_freqs_hz": model.modes.iter().map(|m| m.freq_hz()).collect::<Vec<_>>(),
         "damping": model.modes.iter().map(|m| m.zeta).collect::<Vec<_>>(),

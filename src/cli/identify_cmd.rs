@@ -182,10 +182,8 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
             .and_then(|pl| pl.measured_as)
             .map_or(String::new(), |m| format!(" ({} as measured)", m.name()));
         out.say(format!(
-            "  pose ({:.3}, {:.3}, {:.3}) m: {} ({}), band {:.0}-{:.0} Hz, fit {}{of}",
-            p.pose[0],
-            p.pose[1],
-            p.pose[2],
+            "  pose {}: {} ({}), band {:.0}-{:.0} Hz, fit {}{of}",
+            identify::axis::PoseText(p.pose),
             identify::axis::count(p.order.modes, "mode"),
             if p.order.automatic {
                 "automatic"

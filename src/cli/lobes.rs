@@ -1,6 +1,6 @@
 //! `mtwin lobes`.
 
-use super::{check_output_not_input, parse_pose, BadInput, Output};
+use super::{check_output_not_input, BadInput, Output};
 use crate::report::{self, Scale, Series};
 use anyhow::Result;
 use identify::axis::count;
@@ -15,12 +15,8 @@ use std::path::{Path, PathBuf};
 /// Arguments of `mtwin lobes`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// The twin file.
-    #[arg(long)]
-    pub twin: PathBuf,
-    /// Pose X,Y,Z in metres where the tool-tip FRF is taken.
-    #[arg(long, value_parser = parse_pose, allow_hyphen_values = true)]
-    pub at: [f64; 3],
+    #[command(flatten)]
+    pub pose: super::TwinAt,
     /// Output CSV: rpm, ap_lim_zoa_m, ap_lim_sd_m, chatter_hz_zoa, chatter_hz_sd (limits
     /// in m, `inf` = no chatter found; docs/formats.md, "Lobes CSV"). With
     /// `--sd-speeds 0` the two SD columns are left out; with `--sd-speeds N` other than
@@ -63,7 +59,7 @@ fn sd_csv_path(out: &Path) -> PathBuf {
 
 /// Runs `mtwin lobes`.
 pub fn run(a: Args, out: &Output) -> Result<()> {
-    check_output_not_input(&a.out, std::slice::from_ref(&a.twin))?;
+    check_output_not_input(&a.out, std::slice::from_ref(&a.pose.twin))?;
     if !(a.rpm_min > 0.0 && a.rpm_max > a.rpm_min && a.speeds >= 1) {
         return Err(BadInput(format!(
             "spindle speeds: need 0 < --rpm-min < --rpm-max and --speeds >= 1 (got {} .. {}, {})",
@@ -71,15 +67,15 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
         ))
         .into());
     }
-    let twin = Twin::load(&a.twin)?;
+    let twin = Twin::load(&a.pose.twin)?;
     let mut ev = TwinEvaluator::new(&twin)?;
-    if !ev.is_inside(a.at) {
+    if !ev.is_inside(a.pose.at) {
         out.say(format!(
             "note: pose {} is outside the measured poses; the model of the nearest point of the measured box is used",
-            identify::axis::PoseText(a.at)
+            identify::axis::PoseText(a.pose.at)
         ));
     }
-    let (model, rigid) = with_rigid_tool_tip(ev.model_at(a.at).clone());
+    let (model, rigid) = with_rigid_tool_tip(ev.model_at(a.pose.at).clone());
     for ch in rigid {
         out.say(format!(
             "note: the twin has no {} channel; the tool is taken as rigid in {}",
@@ -118,7 +114,7 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
     // lobes go to their own file (no empty columns either way).
     let sd_path = (!sd.is_empty() && sd.len() != zoa.len()).then(|| sd_csv_path(&a.out));
     if let Some(p) = &sd_path {
-        check_output_not_input(p, std::slice::from_ref(&a.twin))?;
+        check_output_not_input(p, std::slice::from_ref(&a.pose.twin))?;
         write_lobes_csv(&a.out, &zoa, &[])?;
         write_lobes_csv(p, &[], &sd)?;
     } else {
@@ -129,7 +125,7 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
     out.say(format!(
         "lobes at {}, {}, ae/D {}, Kt {:.3e} N/m², Kr {}: \
          minimum stable depth ZOA {:.3} mm ({}, {:.0} ms){}",
-        identify::axis::PoseText(a.at),
+        identify::axis::PoseText(a.pose.at),
         count(a.cut.teeth, "tooth"),
         a.cut.immersion,
         a.cut.kt,
@@ -268,7 +264,7 @@ fn lobes_svg(a: &Args, zoa: &[LobePoint], sd: &[LobePoint]) -> String {
     }
     let title = format!(
         "Stability lobes at {}: {}, D {} mm{}, ae/D {:.2} {}, Kt {:.0} N/mm², Kr {:.2}",
-        identify::axis::PoseText(a.at),
+        identify::axis::PoseText(a.pose.at),
         count(a.cut.teeth, "tooth"),
         report::eng(a.cut.diameter * 1e3),
         if a.cut.helix != 0.0 {

@@ -257,6 +257,26 @@ pub fn check_output_not_input(out: &Path, inputs: &[PathBuf]) -> Result<()> {
 
 pub use identify::axis::parse_pose;
 
+/// The twin file and the pose where it is evaluated (`eval`, `lobes`, `cosim`).
+#[derive(Debug, Clone, clap::Args)]
+pub struct TwinAt {
+    /// The twin file.
+    #[arg(long)]
+    pub twin: PathBuf,
+    /// Pose X,Y,Z in metres where the twin is evaluated (the tool-tip FRF; for `cosim`
+    /// the twin FMU's start x, y, z).
+    #[arg(long, value_parser = parse_pose, allow_hyphen_values = true)]
+    pub at: [f64; 3],
+}
+
+impl TwinAt {
+    /// The twin, after checking that `out` would not overwrite the twin file.
+    pub fn load(&self, out: &Path) -> Result<identify::twin::Twin> {
+        check_output_not_input(out, std::slice::from_ref(&self.twin))?;
+        Ok(identify::twin::Twin::load(&self.twin)?)
+    }
+}
+
 /// Reads time-series files in parallel, printing reader warnings (summarised, see
 /// [`Output::warnings`]).
 pub fn read_series(

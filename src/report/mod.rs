@@ -65,51 +65,46 @@ pub enum Scale {
     Index,
 }
 
-/// A linear axis whose ticks are whole numbers (every 1, 2, 5, 10, ... as room allows).
-struct IndexCoord(RangedCoordf64);
+/// A linear axis with ticks at the multiples of a step: for counting numbers (pose,
+/// history entry) every 1, 2, 5, 10, ... as room allows; for a phase in degrees every
+/// 90° (bold, labelled) with light lines every 45°.
+struct StepCoord {
+    r: RangedCoordf64,
+    phase: bool,
+}
 
-impl Ranged for IndexCoord {
-    type FormatOption = plotters::coord::ranged1d::DefaultFormatting;
-    type ValueType = f64;
-    fn map(&self, v: &f64, limit: (i32, i32)) -> i32 {
-        self.0.map(v, limit)
+impl StepCoord {
+    /// Counting numbers: ticks only at whole numbers.
+    fn index(r: RangedCoordf64) -> Self {
+        StepCoord { r, phase: false }
     }
-    fn key_points<H: plotters::coord::ranged1d::KeyPointHint>(&self, hint: H) -> Vec<f64> {
-        let r = self.0.range();
-        let n = hint.max_num_points().max(1) as f64;
-        let step = [1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0]
-            .into_iter()
-            .find(|s| (r.end - r.start) / s <= n)
-            .unwrap_or(200.0);
-        let mut v = (r.start / step).ceil() * step;
-        let mut out = Vec::new();
-        while v <= r.end + 1e-9 {
-            out.push(v);
-            v += step;
-        }
-        out
-    }
-    fn range(&self) -> std::ops::Range<f64> {
-        self.0.range()
+
+    /// A phase in degrees.
+    fn phase(r: RangedCoordf64) -> Self {
+        StepCoord { r, phase: true }
     }
 }
 
-/// A linear axis whose ticks are the multiples of 90 (a phase in degrees).
-struct PhaseCoord(RangedCoordf64);
-
-impl Ranged for PhaseCoord {
+impl Ranged for StepCoord {
     type FormatOption = plotters::coord::ranged1d::DefaultFormatting;
     type ValueType = f64;
     fn map(&self, v: &f64, limit: (i32, i32)) -> i32 {
-        self.0.map(v, limit)
+        self.r.map(v, limit)
     }
     fn key_points<H: plotters::coord::ranged1d::KeyPointHint>(&self, hint: H) -> Vec<f64> {
-        let r = self.0.range();
-        // bold lines (the labelled ticks) every 90°, light lines every 45°
-        let step = if hint.max_num_points() > 12 {
-            45.0
+        let r = self.r.range();
+        let step = if self.phase {
+            if hint.max_num_points() > 12 {
+                45.0
+            } else {
+                90.0
+            }
         } else {
-            90.0
+            let n = hint.max_num_points().max(1) as f64;
+            [1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0]
+                .into_iter()
+                .find(|s| (r.end - r.start) / s <= n)
+                .unwrap_or(200.0)
         };
         let mut v = (r.start / step).ceil() * step;
         let mut out = Vec::new();
@@ -120,7 +115,7 @@ impl Ranged for PhaseCoord {
         out
     }
     fn range(&self) -> std::ops::Range<f64> {
-        self.0.range()
+        self.r.range()
     }
 }
 
@@ -528,14 +523,14 @@ where
         Scale::Index => draw_panel(
             area,
             xr,
-            IndexCoord(RangedCoordf64::from(yr.0..yr.1)),
+            StepCoord::index(RangedCoordf64::from(yr.0..yr.1)),
             p,
             place,
         ),
         Scale::Phase => draw_panel(
             area,
             xr,
-            PhaseCoord(RangedCoordf64::from(yr.0..yr.1)),
+            StepCoord::phase(RangedCoordf64::from(yr.0..yr.1)),
             p,
             place,
         ),
@@ -648,7 +643,7 @@ fn draw_figure(f: &Figure<'_>) -> String {
                     panel_with_y(&area, xr, yr, p, place)
                 }
                 Scale::Index => {
-                    let xr = IndexCoord(RangedCoordf64::from(xr.0..xr.1));
+                    let xr = StepCoord::index(RangedCoordf64::from(xr.0..xr.1));
                     panel_with_y(&area, xr, yr, p, place)
                 }
                 _ => panel_with_y(&area, RangedCoordf64::from(xr.0..xr.1), yr, p, place),
@@ -1167,16 +1162,16 @@ mod tests {
     fn phase_ticks_at_90_degrees_and_index_ticks_whole() {
         use plotters::coord::ranged1d::{BoldPoints, Ranged};
         use plotters::coord::types::RangedCoordf64;
-        let ph = super::PhaseCoord(RangedCoordf64::from(-190.0..190.0));
+        let ph = super::StepCoord::phase(RangedCoordf64::from(-190.0..190.0));
         assert_eq!(
             ph.key_points(BoldPoints(4)),
             vec![-180.0, -90.0, 0.0, 90.0, 180.0]
         );
-        let ix = super::IndexCoord(RangedCoordf64::from(0.5..18.5));
+        let ix = super::StepCoord::index(RangedCoordf64::from(0.5..18.5));
         let k = ix.key_points(BoldPoints(10));
         assert_eq!(k.first(), Some(&2.0));
         assert!(k.iter().all(|v| v.fract() == 0.0), "{k:?}");
-        let ix = super::IndexCoord(RangedCoordf64::from(0.8..2.2));
+        let ix = super::StepCoord::index(RangedCoordf64::from(0.8..2.2));
         assert_eq!(ix.key_points(BoldPoints(10)), vec![1.0, 2.0]);
     }
 
