@@ -902,17 +902,42 @@ impl Accumulator {
     /// spectrum (line k at index k), multiplied line by line by `scale` (line k by
     /// `scale[k - 1]`) on the way, `fs` the segment's input spectra. The caller counts
     /// the segment in [`Accumulator::averages`].
+    ///
+    /// With one input, the first output's pass also adds the force's auto spectrum
+    /// (`Σ |F|²`) unless `inputs_added` says [`Accumulator::add_inputs`] did.
     fn add_output(
         &mut self,
         o: usize,
         fs: &[Vec<Complex64>],
         y: &[Complex64],
         scale: Option<&[Complex64]>,
+        inputs_added: bool,
     ) {
         let (ni, no, nl) = (self.inputs.len(), self.outputs.len(), self.nl);
         let y = &y[1..=nl];
         let gyy = &mut self.gyy[o * nl..][..nl];
-        if ni == 1 {
+        if ni == 1 && o == 0 && !inputs_added {
+            // the common case in one pass over the lines, the force's auto spectrum too
+            let (f, gfy, gff) = (&fs[0][1..=nl], &mut self.gfy[..nl], &mut self.gff[..nl]);
+            let lines = gfy.iter_mut().zip(gyy).zip(gff).zip(f).zip(y);
+            match scale {
+                Some(s) => {
+                    for (((((g, q), a), x), &y), s) in lines.zip(s) {
+                        let y = y * s;
+                        *a += x.conj() * x;
+                        *g += x.conj() * y;
+                        *q += y.norm_sqr();
+                    }
+                }
+                None => {
+                    for ((((g, q), a), x), y) in lines {
+                        *a += x.conj() * x;
+                        *g += x.conj() * y;
+                        *q += y.norm_sqr();
+                    }
+                }
+            }
+        } else if ni == 1 {
             // the common case in one pass over the lines
             let (f, gfy) = (&fs[0][1..=nl], &mut self.gfy[o * nl..][..nl]);
             match scale {
@@ -1019,8 +1044,7 @@ impl Accumulator {
         // sweep) is not: its band ends where its spectrum does, and smoothing carried a
         // linear chirp's band into the anti-alias filter's noise (99.8 -> 94 % vs truth).
         let p = if smooth {
-            let lines: Vec<f64> = (1..=self.nl).map(|k| k as f64).collect();
-            crate::plan::smooth_octave(&lines, &raw, 1.0 / 12.0)
+            smooth_octave_lines(&raw, 1.0 / 12.0)
         } else {
             raw
         };
@@ -1048,6 +1072,32 @@ impl Accumulator {
                 "{est:?} needs a single force direction but these records excite {} axes at once; use H1 (MIMO)",
                 ni
             )));
+        }
+        if ni == 1 && est == Estimator::H1 {
+            // the usual case in straight-line code (the compiler vectorises it)
+            let gff = &self.gff[..nl];
+            let singular = gff.iter().filter(|g| g.re <= 0.0).count() * no;
+            let chans = self
+                .outputs
+                .iter()
+                .enumerate()
+                .map(|(o, &out)| {
+                    let (gyy, gfy) = (&self.gyy[o * nl..][..nl], &self.gfy[o * nl..][..nl]);
+                    let mut h = vec![Complex64::default(); nl];
+                    let mut coh = vec![0.0; nl];
+                    for ((((h, c), g), &gyy), &gfy) in
+                        h.iter_mut().zip(&mut coh).zip(gff).zip(gyy).zip(gfy)
+                    {
+                        (*h, *c) = h1_line(g.re, gfy, gyy);
+                    }
+                    FrfChannel {
+                        channel: Channel::new(out, self.inputs[0]),
+                        h,
+                        coherence: Some(coh),
+                    }
+                })
+                .collect();
+            return Ok((chans, singular));
         }
         if ni == 1 {
             // one input: each channel's lines in one pass over its sums
@@ -1122,6 +1172,42 @@ impl Accumulator {
         }
         Ok((chans, singular))
     }
+}
+
+/// [`crate::plan::smooth_octave`] of `v` on the lines `1, 2, …, v.len()`, the same
+/// numbers: each window's ends are counted from its edge frequencies instead of walked to
+/// (the walk's branches are taken at random on a fine grid).
+fn smooth_octave_lines(v: &[f64], octaves: f64) -> Vec<f64> {
+    let r = 2f64.powf(octaves);
+    let n = v.len();
+    let mut pre = Vec::with_capacity(n + 1);
+    let mut last = 0.0;
+    pre.push(last);
+    for x in v {
+        last += x;
+        pre.push(last);
+    }
+    (1..=n)
+        .map(|k| {
+            let f = k as f64;
+            // a = #{lines j < f / r}, b = #{lines j ≤ f · r}, lines j = 1..=n
+            let lo = f / r;
+            let t = lo as usize; // ⌊lo⌋ (lo > 0)
+            let a = (t - usize::from(t as f64 == lo)).min(n);
+            let b = ((f * r) as usize).min(n);
+            (pre[b] - pre[a]) / (b - a).max(1) as f64
+        })
+        .collect()
+}
+
+/// [`siso_line`] for [`Estimator::H1`], the same numbers without branches.
+#[inline(always)]
+fn h1_line(gff: f64, gfy: Complex64, gyy: f64) -> (Complex64, f64) {
+    let c = (gfy.norm_sqr() / (gff * gyy)).clamp(0.0, 1.0);
+    let h = gfy / gff;
+    let coh = if gff > 0.0 && gyy > 0.0 { c } else { 0.0 };
+    let h = if gff > 0.0 { h } else { Complex64::default() };
+    (h, coh)
 }
 
 /// H and coherence of one line of a single-input channel from its sums `Gff`, `Gfy`,
@@ -1604,13 +1690,17 @@ impl Welch {
                     }
                     transform(plan, buf, dst, scratch, None)?;
                 }
-                acc.add_inputs(&sp.fs);
+                // one input: its auto spectrum goes with the first output's pass
+                let inputs_added = inputs > 1 || responses.is_empty();
+                if inputs_added {
+                    acc.add_inputs(&sp.fs);
+                }
                 for (o, x) in responses.iter().enumerate() {
                     if !fill_windowed(buf, x, window) {
                         return Ok(false);
                     }
                     transform(plan, buf, &mut sp.ys[0], scratch, None)?;
-                    acc.add_output(o, &sp.fs, &sp.ys[0], conv);
+                    acc.add_output(o, &sp.fs, &sp.ys[0], conv, inputs_added);
                 }
                 acc.averages += 1;
             }
@@ -1934,6 +2024,22 @@ mod tests {
         assert!(impact::flat_top(&[0.0, 1.0, 5.0, 5.0, 5.0, 2.0]));
         assert!(!impact::flat_top(&[0.0, 1.0, 5.0, 4.9, 5.0 - 1e-3, 2.0]));
         assert!(impact::flat_top(&[0.0, -5.0, -5.0, -5.0]));
+    }
+
+    #[test]
+    fn octave_smoothing_on_lines_equals_the_general_one() {
+        for n in [0, 1, 2, 17, 18, 100, 1000, 4097] {
+            let v: Vec<f64> = (0..n).map(|k| ((k * 7919 % 1013) as f64).sin()).collect();
+            let lines: Vec<f64> = (1..=n).map(|k| k as f64).collect();
+            for oct in [1.0 / 12.0, 1.0 / 3.0, 1.0] {
+                let (a, b) = (
+                    smooth_octave_lines(&v, oct),
+                    crate::plan::smooth_octave(&lines, &v, oct),
+                );
+                assert!(a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()));
+                assert_eq!(a.len(), b.len());
+            }
+        }
     }
 
     #[test]
