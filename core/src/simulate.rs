@@ -231,6 +231,10 @@ pub fn band_limited_lti(model: &ModalModel, forces: &[[f64; 3]], dt: f64) -> Vec
         }
         trans.push(pows[l]);
     }
+    // by state component: fir_t[q · width + jj] = fir[jj · w2 + q]
+    let fir_t: Vec<f64> = (0..w2 * width)
+        .map(|i| fir[(i % width) * w2 + i / width])
+        .collect();
     let mut out = vec![[0.0; 3]; n];
     // the force axes that carry force; the others leave their states at rest
     for j in (0..3).filter(|&j| forces.iter().any(|f| f[j] != 0.0)) {
@@ -258,11 +262,16 @@ pub fn band_limited_lti(model: &ModalModel, forces: &[[f64; 3]], dt: f64) -> Vec
             if i + 1 == n {
                 break;
             }
-            z.fill(0.0);
-            for (taps, &x) in fir.chunks_exact(w2).zip(&xp[i..i + width]) {
-                for (zz, t) in z.iter_mut().zip(taps) {
-                    *zz += t * x;
+            // each state component's FIR as a dot product in four partial sums
+            let win = &xp[i..i + width];
+            for (zq, col) in z.iter_mut().zip(fir_t.chunks_exact(width)) {
+                let mut acc = [0.0; 4];
+                for (t, x) in col.chunks_exact(4).zip(win.chunks_exact(4)) {
+                    for c in 0..4 {
+                        acc[c] += t[c] * x[c];
+                    }
                 }
+                *zq = (acc[0] + acc[1]) + (acc[2] + acc[3]);
             }
             for (k, p) in trans.iter().enumerate() {
                 let (q, v) = (state[2 * k], state[2 * k + 1]);
