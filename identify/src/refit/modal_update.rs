@@ -495,14 +495,48 @@ pub fn update_modes_with(
         ));
     }
     let n_res = n_data + lay.n();
+    // the held modes' and the feedthrough's part of every point's model value: fixed
+    // during the update, so each evaluation adds only the free modes' terms
+    let held: Vec<Vec<Complex64>> = points
+        .iter()
+        .zip(&chan_idx)
+        .map(|(p, ci)| {
+            let Some(ci) = *ci else {
+                return vec![Complex64::default(); p.freqs_hz.len()];
+            };
+            let ch = &model.channels[ci];
+            p.freqs_hz
+                .iter()
+                .map(|&f| {
+                    let s = Complex64::new(0.0, 2.0 * PI * f);
+                    let mut h = Complex64::new(ch.d, 0.0);
+                    for (k, (m, n)) in model.modes.iter().zip(&ch.num).enumerate() {
+                        if !lay.free.contains(&k) {
+                            h += (s * n.b1 + n.b0) / m.den(s);
+                        }
+                    }
+                    h
+                })
+                .collect()
+        })
+        .collect();
     let residuals = |theta: &[f64]| -> (DVector<f64>, ModalModel) {
         let m = unpack(model, &lay, theta, &scale);
         let mut r = DVector::zeros(n_res);
         let mut i = 0;
-        for (p, ci) in points.iter().zip(&chan_idx) {
-            for ((f, h), s) in p.freqs_hz.iter().zip(&p.h).zip(&p.sigma) {
+        for ((p, ci), held) in points.iter().zip(&chan_idx).zip(&held) {
+            for (((f, h), s), hv) in p.freqs_hz.iter().zip(&p.h).zip(&p.sigma).zip(held) {
                 let e = match ci {
-                    Some(ci) => (m.eval_hz(*ci, *f) - h) / *s,
+                    Some(ci) => {
+                        let sv = Complex64::new(0.0, 2.0 * PI * f);
+                        let ch = &m.channels[*ci];
+                        let mut v = *hv;
+                        for &k in &lay.free {
+                            let n = ch.num[k];
+                            v += (sv * n.b1 + n.b0) / m.modes[k].den(sv);
+                        }
+                        (v - h) / *s
+                    }
                     None => Complex64::new(0.0, 0.0),
                 };
                 r[i] = e.re;
