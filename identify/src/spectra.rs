@@ -463,7 +463,7 @@ const STATS_BLOCK: usize = 4096;
 impl ForceStats {
     fn new(f: &[f64]) -> Self {
         let len = f.len();
-        let part = len / SWEEP_SEGMENTS & !1;
+        let part = (len / SWEEP_SEGMENTS) & !1;
         // the sweep parts, then what is left after them, as pieces of the one pass
         let mut pieces: Vec<(usize, usize)> = if len / SWEEP_SEGMENTS >= 64 {
             (0..SWEEP_SEGMENTS).map(|s| (s * part, part)).collect()
@@ -822,9 +822,12 @@ const SUMS_KEPT: usize = 6;
 /// The largest sum buffer a thread keeps, in elements.
 const SUMS_KEPT_MAX_LEN: usize = 1 << 21;
 
+/// Complex and real sum buffers a thread keeps.
+type KeptSums = (Vec<Vec<Complex64>>, Vec<Vec<f64>>);
+
 thread_local! {
     /// Complex and real sum buffers of dropped [`Accumulator`]s, for [`zeroed`].
-    static SUMS: std::cell::RefCell<(Vec<Vec<Complex64>>, Vec<Vec<f64>>)> = const { std::cell::RefCell::new((Vec::new(), Vec::new())) };
+    static SUMS: std::cell::RefCell<KeptSums> = const { std::cell::RefCell::new((Vec::new(), Vec::new())) };
 }
 
 /// `len` zeros in a buffer this thread kept ([`SUMS_KEPT`]) or a new one.
