@@ -1815,9 +1815,9 @@ fn continuous(records: &[TimeSeries], infos: &[RecordInfo], ctx: &mut Ctx) -> Re
 /// `buf = x · w` sample by sample; false when a sample of `x` is NaN or infinite (checked
 /// on the way: the samples are loaded anyway).
 fn fill_windowed(buf: &mut [f64], x: &[f64], w: &[f64]) -> bool {
-    // x·0 is NaN exactly for NaN and ±Inf; 16 partial sums keep the adds off the
+    // x·0 is NaN exactly for NaN and ±Inf; 8 partial sums keep the adds off the
     // critical path
-    const L: usize = 16;
+    const L: usize = 8;
     let mut chk = [0.0f64; L];
     let n = buf.len().min(x.len()).min(w.len());
     let (buf, x, w) = (&mut buf[..n], &x[..n], &w[..n]);
