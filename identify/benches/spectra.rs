@@ -5,8 +5,8 @@
 //! is `estimate_frf` within 1.3x of the floor.
 //!
 //! Before criterion's wall times it prints the ratio of the two in on-CPU time of the
-//! thread (`/proc/thread-self/schedstat`, Linux), interleaved runs: on a machine shared
-//! with other work, wall times measure the load as much as the code.
+//! thread (`CLOCK_THREAD_CPUTIME_ID`), medians of interleaved runs: on a
+//! machine shared with other work, wall times measure the load as much as the code.
 //!
 //! Run: `cargo bench -p identify --bench spectra` (only the on-CPU ratio:
 //! `cargo bench -p identify --bench spectra -- none`).
@@ -97,29 +97,38 @@ impl Floor {
     }
 }
 
-/// Nanoseconds this thread has run on a CPU (Linux; `None` elsewhere).
+/// Nanoseconds this thread has run on a CPU (`CLOCK_THREAD_CPUTIME_ID`; `None` when the
+/// clock fails).
 fn cpu_ns() -> Option<u64> {
-    std::fs::read_to_string("/proc/thread-self/schedstat")
-        .ok()?
-        .split_whitespace()
-        .next()?
-        .parse()
-        .ok()
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: `ts` is a valid, writable timespec for the call's duration.
+    let rc = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
+    (rc == 0).then(|| ts.tv_sec as u64 * 1_000_000_000 + ts.tv_nsec as u64)
 }
 
-/// On-CPU milliseconds per call of `a` and `b`, `runs` calls each, interleaved.
-fn on_cpu_ms(runs: usize, mut a: impl FnMut(), mut b: impl FnMut()) -> Option<(f64, f64)> {
-    let (mut ta, mut tb) = (0, 0);
+/// On-CPU milliseconds per call of `a` and `b`, `runs` calls each, interleaved: the
+/// medians (a call that shared its core's caches with another program's burst does not
+/// move them) and the means.
+fn on_cpu_ms(runs: usize, mut a: impl FnMut(), mut b: impl FnMut()) -> Option<[(f64, f64); 2]> {
+    let (mut ta, mut tb) = (Vec::with_capacity(runs), Vec::with_capacity(runs));
     for _ in 0..runs {
         let t0 = cpu_ns()?;
         a();
         let t1 = cpu_ns()?;
         b();
         let t2 = cpu_ns()?;
-        (ta, tb) = (ta + t1 - t0, tb + t2 - t1);
+        ta.push((t1 - t0) as f64 * 1e-6);
+        tb.push((t2 - t1) as f64 * 1e-6);
     }
-    let per = |t: u64| t as f64 * 1e-6 / runs as f64;
-    Some((per(ta), per(tb)))
+    let stats = |mut t: Vec<f64>| {
+        let mean = t.iter().sum::<f64>() / t.len() as f64;
+        t.sort_by(f64::total_cmp);
+        (t[t.len() / 2], mean)
+    };
+    Some([stats(ta), stats(tb)])
 }
 
 fn bench(c: &mut Criterion) {
@@ -138,7 +147,7 @@ fn bench(c: &mut Criterion) {
         floor.segs,
         floor.cols.len()
     );
-    let runs = 40;
+    let runs = 60;
     let cpu = pool.install(|| {
         on_cpu_ms(
             runs,
@@ -151,11 +160,12 @@ fn bench(c: &mut Criterion) {
         )
     });
     match cpu {
-        Some((e, f)) => println!(
-            "on-CPU time per call ({runs} interleaved runs): estimate_frf {e:.2} ms, floor {f:.2} ms, ratio {:.2}",
-            e / f
+        Some([(e, em), (f, fm)]) => println!(
+            "on-CPU time per call ({runs} interleaved runs), median: estimate_frf {e:.2} ms, floor {f:.2} ms, ratio {:.2} (means {em:.2} / {fm:.2} = {:.2})",
+            e / f,
+            em / fm
         ),
-        None => println!("no /proc/thread-self/schedstat: on-CPU times not measured"),
+        None => println!("no thread CPU clock: on-CPU times not measured"),
     }
     let mut g = c.benchmark_group("welch_h1_one_thread");
     g.sample_size(20);

@@ -218,11 +218,19 @@ pub fn simulate_record(twin: &Twin, ts: &TimeSeries) -> Result<Vec<AxisTrace>> {
 }
 
 /// Fit \[%\] of the twin's simulation against the measured responses (all axes pooled).
+/// Records where the axes stand still are simulated at their own rate
+/// ([`crate::extended::simulate_as_measured_lti`], the same response up to rounding).
 pub fn time_fit(twin: &Twin, records: &[TimeSeries]) -> Result<f64> {
     let mut meas = Vec::new();
     let mut sim = Vec::new();
+    let outs: Vec<Axis> = twin.channels.iter().map(|c| c.output).collect();
     for ts in records {
-        for (_, m, s) in simulate_record(twin, ts)? {
+        let y = crate::extended::simulate_as_measured_lti(twin, ts)?;
+        let traces = Axis::ALL.into_iter().filter_map(|a| {
+            let m = ts.response(a).filter(|_| outs.contains(&a))?;
+            Some((m, &y[a.index()]))
+        });
+        for (m, s) in traces {
             // skip the start-up transient (the twin starts at rest, the machine did not)
             let skip = (m.len() / 20).min(2000);
             meas.extend_from_slice(&m[skip..]);

@@ -225,6 +225,7 @@ pub fn estimate_frf(records: &[TimeSeries], opts: &FrfOptions) -> Result<FrfEsti
             records[0].source
         )));
     }
+    let mut stats = Vec::with_capacity(records.len());
     for r in records {
         if ((r.dt - dt) / dt).abs() > FS_TOLERANCE {
             return Err(Error::BadInput(format!(
@@ -236,6 +237,7 @@ pub fn estimate_frf(records: &[TimeSeries], opts: &FrfOptions) -> Result<FrfEsti
             )));
         }
         let n = r.len();
+        let mut forces: [Option<ForceStats>; 3] = Default::default();
         for (what, col) in r
             .force
             .iter()
@@ -250,28 +252,60 @@ pub fn estimate_frf(records: &[TimeSeries], opts: &FrfOptions) -> Result<FrfEsti
                         v.len()
                     )));
                 }
-                // x·0 is NaN exactly for NaN and ±Inf: one vectorised pass, then the position
-                if sum4(v, |x| x * 0.0) != 0.0 {
-                    let i = v.iter().position(|x| !x.is_finite()).unwrap_or(0);
-                    return Err(Error::BadInput(format!(
-                        "{}: {what} sample {i} is not finite; remove NaN/Inf from the record",
-                        r.source
-                    )));
+            }
+        }
+        // each force column read once here: finite, mean, RMS, extremes, subsample
+        for (col, st) in r.force.iter().zip(&mut forces) {
+            if let Some(v) = col {
+                let s = ForceStats::new(v);
+                if !s.finite {
+                    return Err(not_finite(r, "force", v));
                 }
+                *st = Some(s);
             }
         }
         check_responses(&r.source, r.response_kind, &r.response_axes())?;
+        stats.push(forces);
     }
     check_options(opts)?;
 
-    let infos: Vec<RecordInfo> = records.iter().map(RecordInfo::new).collect::<Result<_>>()?;
+    let infos: Vec<RecordInfo> = (records.iter().zip(stats))
+        .map(|(r, s)| RecordInfo::new(r, s))
+        .collect::<Result<_>>()?;
     let excitation = resolve_excitation(opts.excitation, &infos)?;
+    if excitation != Excitation::Continuous {
+        // (the Welch path checks the responses while it windows them)
+        for r in records {
+            for v in r.response.iter().flatten() {
+                check_finite(r, "response", v)?;
+            }
+        }
+    }
     let mut ctx = Ctx::new(dt, opts);
     match excitation {
         Excitation::Impact => impact::estimate(records, &infos, &mut ctx),
         Excitation::Continuous => on_worker(|| continuous(records, &infos, &mut ctx)),
         _ => chirp(records, &infos, &mut ctx),
     }
+}
+
+/// The error for the first sample of `v` (a `what` column of `r`) that is NaN or
+/// infinite.
+fn not_finite(r: &TimeSeries, what: &str, v: &[f64]) -> Error {
+    let i = v.iter().position(|x| !x.is_finite()).unwrap_or(0);
+    Error::BadInput(format!(
+        "{}: {what} sample {i} is not finite; remove NaN/Inf from the record",
+        r.source
+    ))
+}
+
+/// Fails with [`not_finite`] when a sample of `v` is NaN or infinite.
+fn check_finite(r: &TimeSeries, what: &str, v: &[f64]) -> Result<()> {
+    // x·0 is NaN exactly for NaN and ±Inf: one vectorised pass, then the position
+    if sum4(v, |x| x * 0.0) != 0.0 {
+        return Err(not_finite(r, what, v));
+    }
+    Ok(())
 }
 
 /// Response columns must exist and have a kind.
@@ -338,20 +372,19 @@ struct RecordInfo {
 }
 
 impl RecordInfo {
-    fn new(r: &TimeSeries) -> Result<Self> {
-        let mut rms = [0.0f64; 3];
-        for a in r.force_axes() {
-            let f = r.force(a).unwrap_or(&[]);
-            let n = f.len().max(1) as f64;
-            let m = sum4(f, |v| v) / n;
-            rms[a.index()] = (sum4(f, |v| (v - m) * (v - m)) / n).sqrt();
-        }
+    /// From the record and the [`ForceStats`] of its force columns (by axis).
+    fn new(r: &TimeSeries, mut stats: [Option<ForceStats>; 3]) -> Result<Self> {
+        let rms = stats.each_ref().map(|s| s.as_ref().map_or(0.0, |s| s.rms));
         let mut info = Self::from_stats(&r.source, rms, r.response_axes(), |a| {
-            let f = r.force(a).unwrap_or(&[]);
-            impulsive(&subsample(f), min_max(f))
+            stats[a.index()]
+                .as_mut()
+                .is_some_and(|s| impulsive(&mut s.subsample, (s.min, s.max)))
         });
         if let Ok(i) = &mut info {
-            i.sweep = !i.impulsive && r.force(i.strongest).is_some_and(is_sweep);
+            i.sweep = !i.impulsive
+                && (r.force(i.strongest))
+                    .zip(stats[i.strongest.index()].as_ref())
+                    .is_some_and(|(f, s)| is_sweep(f, &s.parts));
         }
         info
     }
@@ -405,43 +438,131 @@ fn sum4(v: &[f64], g: impl Fn(f64) -> f64) -> f64 {
     (acc[0] + acc[1]) + (acc[2] + acc[3])
 }
 
-/// The smallest and largest of `v` (±∞ when empty), in [`crate::lanes::LANES`] interleaved
-/// running extremes.
-fn min_max(v: &[f64]) -> (f64, f64) {
+/// What every path needs of a force column, from one pass over it: whether it is
+/// finite, its mean, RMS and extremes, the systematic subsample a streamed read keeps
+/// ([`ColumnStats::subsample`](crate::read::ColumnStats::subsample), stride
+/// [`subsample_stride`](crate::read::subsample_stride); a record in memory and the same
+/// file streamed are judged alike) and the mean and RMS of each of the
+/// [`SWEEP_SEGMENTS`] parts [`is_sweep`] looks at.
+struct ForceStats {
+    /// False when a sample is NaN or infinite (the other fields are then meaningless).
+    finite: bool,
+    rms: f64,
+    min: f64,
+    max: f64,
+    subsample: Vec<f64>,
+    /// `(start, len, mean, rms)` of each sweep part (none when the parts would be
+    /// shorter than 64 samples).
+    parts: Vec<(usize, usize, f64, f64)>,
+}
+
+/// Samples per block of [`ForceStats::new`]'s pass (a block stays in the L1 cache while
+/// its subsample is picked).
+const STATS_BLOCK: usize = 4096;
+
+impl ForceStats {
+    fn new(f: &[f64]) -> Self {
+        let len = f.len();
+        let part = (len / SWEEP_SEGMENTS) & !1;
+        // the sweep parts, then what is left after them, as pieces of the one pass
+        let mut pieces: Vec<(usize, usize)> = if len / SWEEP_SEGMENTS >= 64 {
+            (0..SWEEP_SEGMENTS).map(|s| (s * part, part)).collect()
+        } else {
+            Vec::new()
+        };
+        let covered = pieces.len() * part;
+        if covered < len {
+            pieces.push((covered, len - covered));
+        }
+        let stride = crate::read::subsample_stride(len);
+        let mut subsample = Vec::with_capacity(len.div_ceil(stride));
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        // per piece: its shift c (first sample), Σ(v - c), Σ(v - c)², length
+        let mut sums = Vec::with_capacity(pieces.len());
+        for &(start, n) in &pieces {
+            let x = &f[start..start + n];
+            let c = x[0];
+            let (mut s1, mut s2) = (0.0, 0.0);
+            for (b, block) in x.chunks(STATS_BLOCK).enumerate() {
+                let [d, q, l, h] = shifted_sums(block, c);
+                (s1, s2, lo, hi) = (s1 + d, s2 + q, lo.min(l), hi.max(h));
+                let first = start + b * STATS_BLOCK;
+                let skip = (stride - first % stride) % stride;
+                subsample.extend(block.iter().skip(skip).step_by(stride));
+            }
+            sums.push((c, s1, s2, n as f64));
+        }
+        let finite = sums
+            .iter()
+            .all(|&(_, s1, s2, _)| s1.is_finite() && s2.is_finite())
+            || f.iter().all(|x| x.is_finite()); // sums overflowed, samples fine
+        let total = len.max(1) as f64;
+        let mean = sums.iter().map(|&(c, s1, _, n)| s1 + n * c).sum::<f64>() / total;
+        // Σ(v - m)² of a piece from its shifted sums: S2 - 2 (m - c) S1 + n (m - c)²
+        let centred = |m: f64, &(c, s1, s2, n): &(f64, f64, f64, f64)| {
+            let d = m - c;
+            (s2 - 2.0 * d * s1 + n * d * d).max(0.0)
+        };
+        let rms = (sums.iter().map(|p| centred(mean, p)).sum::<f64>() / total).sqrt();
+        let parts = (pieces.iter().zip(&sums))
+            .take(if len / SWEEP_SEGMENTS >= 64 {
+                SWEEP_SEGMENTS
+            } else {
+                0
+            })
+            .map(|(&(start, n), p)| {
+                let m = p.1 / p.3 + p.0;
+                (start, n, m, (centred(m, p) / p.3).sqrt())
+            })
+            .collect();
+        ForceStats {
+            finite,
+            rms,
+            min: lo,
+            max: hi,
+            subsample,
+            parts,
+        }
+    }
+}
+
+/// `[Σ(v - c), Σ(v - c)², min v, max v]` in [`crate::lanes::LANES`] interleaved partial
+/// sums and running extremes.
+fn shifted_sums(v: &[f64], c: f64) -> [f64; 4] {
     const L: usize = crate::lanes::LANES;
+    let (mut s1, mut s2) = ([0.0f64; L], [0.0f64; L]);
     let (mut lo, mut hi) = ([f64::INFINITY; L], [f64::NEG_INFINITY; L]);
     let chunks = v.chunks_exact(L);
     let rest = chunks.remainder();
-    for c in chunks {
+    for x in chunks {
         for l in 0..L {
-            lo[l] = if c[l] < lo[l] { c[l] } else { lo[l] };
-            hi[l] = if c[l] > hi[l] { c[l] } else { hi[l] };
+            let d = x[l] - c;
+            s1[l] += d;
+            s2[l] += d * d;
+            lo[l] = if x[l] < lo[l] { x[l] } else { lo[l] };
+            hi[l] = if x[l] > hi[l] { x[l] } else { hi[l] };
         }
     }
     for &x in rest {
+        let d = x - c;
+        s1[0] += d;
+        s2[0] += d * d;
         lo[0] = if x < lo[0] { x } else { lo[0] };
         hi[0] = if x > hi[0] { x } else { hi[0] };
     }
-    (
+    [
+        (s1[0] + s1[1]) + (s1[2] + s1[3]),
+        (s2[0] + s2[1]) + (s2[2] + s2[3]),
         lo.into_iter().fold(f64::INFINITY, f64::min),
         hi.into_iter().fold(f64::NEG_INFINITY, f64::max),
-    )
-}
-
-/// The systematic subsample a streamed read keeps of a column
-/// ([`ColumnStats::subsample`](crate::read::ColumnStats::subsample), stride
-/// [`subsample_stride`](crate::read::subsample_stride)), so that a record in memory and the
-/// same file streamed are judged alike.
-fn subsample(f: &[f64]) -> Vec<f64> {
-    let stride = crate::read::subsample_stride(f.len());
-    f.iter().step_by(stride).copied().collect()
+    ]
 }
 
 /// True when fewer than 2 % of `samples` deviate from their median by more than 20 % of
 /// the largest deviation, which is taken from the extremes `(min, max)` of the whole
 /// force (`samples` may be a subsample of it).
-fn impulsive(samples: &[f64], (lo, hi): (f64, f64)) -> bool {
-    let base = median(samples);
+fn impulsive(samples: &mut [f64], (lo, hi): (f64, f64)) -> bool {
+    let base = median_in_place(samples);
     let peak = (hi - base).abs().max((lo - base).abs());
     let above = samples
         .iter()
@@ -459,19 +580,16 @@ const SWEEP_SEGMENTS: usize = 16;
 /// rises or only falls, over a span of at least a factor 4. Random force has no steady
 /// dominant frequency, milling's stays put; for a sweep the rectangular-window full-record
 /// ratio is unbiased where Welch's Hann segments smear the moving line.
-fn is_sweep(f: &[f64]) -> bool {
-    let n = f.len() / SWEEP_SEGMENTS;
-    if n < 64 {
+///
+/// `stats`: `(start, len, mean, rms)` of each part ([`ForceStats::parts`]; none: not a
+/// sweep).
+fn is_sweep(f: &[f64], stats: &[(usize, usize, f64, f64)]) -> bool {
+    let Some(&(_, n, _, _)) = stats.first() else {
         return false;
-    }
-    let n = n & !1;
-    let parts: Vec<&[f64]> = f.chunks_exact(n).take(SWEEP_SEGMENTS).collect();
-    let means: Vec<f64> = parts.iter().map(|p| sum4(p, |v| v) / n as f64).collect();
-    let rms: Vec<f64> = parts
-        .iter()
-        .zip(&means)
-        .map(|(p, &m)| (sum4(p, |v| (v - m) * (v - m)) / n as f64).sqrt())
-        .collect();
+    };
+    let parts: Vec<&[f64]> = stats.iter().map(|&(s, n, _, _)| &f[s..s + n]).collect();
+    let means: Vec<f64> = stats.iter().map(|p| p.2).collect();
+    let rms: Vec<f64> = stats.iter().map(|p| p.3).collect();
     let top = rms.iter().copied().fold(0.0, f64::max);
     let carrying: Vec<usize> = (0..parts.len()).filter(|&s| rms[s] >= 0.1 * top).collect();
     if carrying.len() < 6 {
@@ -517,13 +635,18 @@ fn is_sweep(f: &[f64]) -> bool {
     hi >= 4 * lo
 }
 
+/// The median of `v` (the upper one of an even count; 0 when empty).
 fn median(v: &[f64]) -> f64 {
+    median_in_place(&mut v.to_vec())
+}
+
+/// The median of `v` (the upper one of an even count; 0 when empty), reordering `v`.
+fn median_in_place(v: &mut [f64]) -> f64 {
     if v.is_empty() {
         return 0.0;
     }
-    let mut c = v.to_vec();
-    let mid = c.len() / 2;
-    let (_, m, _) = c.select_nth_unstable_by(mid, f64::total_cmp);
+    let mid = v.len() / 2;
+    let (_, m, _) = v.select_nth_unstable_by(mid, f64::total_cmp);
     *m
 }
 
@@ -691,17 +814,168 @@ struct Accumulator {
     averages: usize,
 }
 
+/// Sum buffers a thread keeps for its next [`Accumulator`]s (a campaign estimates many
+/// records of one length; fresh buffers of a 65536-point estimate cost page faults
+/// comparable to an average).
+const SUMS_KEPT: usize = 6;
+
+/// The largest sum buffer a thread keeps, in elements.
+const SUMS_KEPT_MAX_LEN: usize = 1 << 21;
+
+/// Complex and real sum buffers a thread keeps.
+type KeptSums = (Vec<Vec<Complex64>>, Vec<Vec<f64>>);
+
+thread_local! {
+    /// Complex and real sum buffers of dropped [`Accumulator`]s, for [`zeroed`].
+    static SUMS: std::cell::RefCell<KeptSums> = const { std::cell::RefCell::new((Vec::new(), Vec::new())) };
+}
+
+/// `len` zeros in a buffer this thread kept ([`SUMS_KEPT`]) or a new one.
+fn zeroed<T: Copy + Default>(pool: &mut Vec<Vec<T>>, len: usize) -> Vec<T> {
+    let mut v = pool
+        .iter()
+        .position(|v| v.capacity() >= len)
+        .map(|i| pool.swap_remove(i))
+        .unwrap_or_default();
+    v.clear();
+    v.resize(len, T::default());
+    v
+}
+
+/// Gives `v` back to `pool` unless it is full or `v` too large.
+fn keep<T>(pool: &mut Vec<Vec<T>>, v: Vec<T>) {
+    if pool.len() < SUMS_KEPT && v.capacity() <= SUMS_KEPT_MAX_LEN && v.capacity() > 0 {
+        pool.push(v);
+    }
+}
+
+impl Drop for Accumulator {
+    fn drop(&mut self) {
+        let (gff, gfy, gyy) = (
+            std::mem::take(&mut self.gff),
+            std::mem::take(&mut self.gfy),
+            std::mem::take(&mut self.gyy),
+        );
+        // a thread being torn down keeps nothing
+        let _ = SUMS.try_with(|p| {
+            let (c, r) = &mut *p.borrow_mut();
+            keep(c, gff);
+            keep(c, gfy);
+            keep(r, gyy);
+        });
+    }
+}
+
 impl Accumulator {
     fn new(inputs: Vec<Axis>, outputs: Vec<Axis>, nl: usize) -> Self {
         let (ni, no) = (inputs.len(), outputs.len());
+        let (gff, gfy, gyy) = SUMS.with_borrow_mut(|(c, r)| {
+            (
+                zeroed(c, nl * ni * ni),
+                zeroed(c, nl * ni * no),
+                zeroed(r, nl * no),
+            )
+        });
         Accumulator {
-            gff: vec![Complex64::default(); nl * ni * ni],
-            gfy: vec![Complex64::default(); nl * ni * no],
-            gyy: vec![0.0; nl * no],
+            gff,
+            gfy,
+            gyy,
             inputs,
             outputs,
             nl,
             averages: 0,
+        }
+    }
+
+    /// Adds the input auto and cross spectra `Σ conj(F_i) F_j` of one segment (`fs`:
+    /// its input spectra, line k at index k); [`Accumulator::add_output`] adds the rest
+    /// of that segment. Each sum gets the same term in the same order as in
+    /// [`Accumulator::add`], so both give the same sums bit for bit.
+    fn add_inputs(&mut self, fs: &[Vec<Complex64>]) {
+        let (ni, nl) = (self.inputs.len(), self.nl);
+        for (a, g) in self.gff.chunks_exact_mut(nl.max(1)).enumerate() {
+            let (fi, fj) = (&fs[a / ni][1..=nl], &fs[a % ni][1..=nl]);
+            for ((g, x), y) in g.iter_mut().zip(fi).zip(fj) {
+                *g += x.conj() * y;
+            }
+        }
+    }
+
+    /// Adds output `o`'s sums `Σ conj(F_i) Y_o` and `Σ |Y_o|²` of one segment: `y` its
+    /// spectrum (line k at index k), multiplied line by line by `scale` (line k by
+    /// `scale[k - 1]`) on the way, `fs` the segment's input spectra. The caller counts
+    /// the segment in [`Accumulator::averages`].
+    ///
+    /// With one input, the first output's pass also adds the force's auto spectrum
+    /// (`Σ |F|²`) unless `inputs_added` says [`Accumulator::add_inputs`] did.
+    fn add_output(
+        &mut self,
+        o: usize,
+        fs: &[Vec<Complex64>],
+        y: &[Complex64],
+        scale: Option<&[Complex64]>,
+        inputs_added: bool,
+    ) {
+        let (ni, no, nl) = (self.inputs.len(), self.outputs.len(), self.nl);
+        let y = &y[1..=nl];
+        let gyy = &mut self.gyy[o * nl..][..nl];
+        if ni == 1 && o == 0 && !inputs_added {
+            // the common case in one pass over the lines, the force's auto spectrum too
+            let (f, gfy, gff) = (&fs[0][1..=nl], &mut self.gfy[..nl], &mut self.gff[..nl]);
+            let lines = gfy.iter_mut().zip(gyy).zip(gff).zip(f).zip(y);
+            match scale {
+                Some(s) => {
+                    for (((((g, q), a), x), &y), s) in lines.zip(s) {
+                        let y = y * s;
+                        *a += x.conj() * x;
+                        *g += x.conj() * y;
+                        *q += y.norm_sqr();
+                    }
+                }
+                None => {
+                    for ((((g, q), a), x), y) in lines {
+                        *a += x.conj() * x;
+                        *g += x.conj() * y;
+                        *q += y.norm_sqr();
+                    }
+                }
+            }
+        } else if ni == 1 {
+            // the common case in one pass over the lines
+            let (f, gfy) = (&fs[0][1..=nl], &mut self.gfy[o * nl..][..nl]);
+            match scale {
+                Some(s) => {
+                    for ((((g, q), x), &y), s) in gfy.iter_mut().zip(gyy).zip(f).zip(y).zip(s) {
+                        let y = y * s;
+                        *g += x.conj() * y;
+                        *q += y.norm_sqr();
+                    }
+                }
+                None => {
+                    for (((g, q), x), y) in gfy.iter_mut().zip(gyy).zip(f).zip(y) {
+                        *g += x.conj() * y;
+                        *q += y.norm_sqr();
+                    }
+                }
+            }
+        } else {
+            let scaled: Vec<Complex64>;
+            let y = match scale {
+                Some(s) => {
+                    scaled = y.iter().zip(s).map(|(y, s)| y * s).collect();
+                    &scaled[..]
+                }
+                None => y,
+            };
+            for (q, y) in gyy.iter_mut().zip(y) {
+                *q += y.norm_sqr();
+            }
+            for (i, f) in fs.iter().enumerate() {
+                let g = &mut self.gfy[(i * no + o) * nl..][..nl];
+                for ((g, x), y) in g.iter_mut().zip(&f[1..=nl]).zip(y) {
+                    *g += x.conj() * y;
+                }
+            }
         }
     }
 
@@ -773,8 +1047,7 @@ impl Accumulator {
         // sweep) is not: its band ends where its spectrum does, and smoothing carried a
         // linear chirp's band into the anti-alias filter's noise (99.8 -> 94 % vs truth).
         let p = if smooth {
-            let lines: Vec<f64> = (1..=self.nl).map(|k| k as f64).collect();
-            crate::plan::smooth_octave(&lines, &raw, 1.0 / 12.0)
+            smooth_octave_lines(&raw, 1.0 / 12.0)
         } else {
             raw
         };
@@ -802,6 +1075,32 @@ impl Accumulator {
                 "{est:?} needs a single force direction but these records excite {} axes at once; use H1 (MIMO)",
                 ni
             )));
+        }
+        if ni == 1 && est == Estimator::H1 {
+            // the usual case in straight-line code (the compiler vectorises it)
+            let gff = &self.gff[..nl];
+            let singular = gff.iter().filter(|g| g.re <= 0.0).count() * no;
+            let chans = self
+                .outputs
+                .iter()
+                .enumerate()
+                .map(|(o, &out)| {
+                    let (gyy, gfy) = (&self.gyy[o * nl..][..nl], &self.gfy[o * nl..][..nl]);
+                    let mut h = vec![Complex64::default(); nl];
+                    let mut coh = vec![0.0; nl];
+                    for ((((h, c), g), &gyy), &gfy) in
+                        h.iter_mut().zip(&mut coh).zip(gff).zip(gyy).zip(gfy)
+                    {
+                        (*h, *c) = h1_line(g.re, gfy, gyy);
+                    }
+                    FrfChannel {
+                        channel: Channel::new(out, self.inputs[0]),
+                        h,
+                        coherence: Some(coh),
+                    }
+                })
+                .collect();
+            return Ok((chans, singular));
         }
         if ni == 1 {
             // one input: each channel's lines in one pass over its sums
@@ -876,6 +1175,42 @@ impl Accumulator {
         }
         Ok((chans, singular))
     }
+}
+
+/// [`crate::plan::smooth_octave`] of `v` on the lines `1, 2, …, v.len()`, the same
+/// numbers: each window's ends are counted from its edge frequencies instead of walked to
+/// (the walk's branches are taken at random on a fine grid).
+fn smooth_octave_lines(v: &[f64], octaves: f64) -> Vec<f64> {
+    let r = 2f64.powf(octaves);
+    let n = v.len();
+    let mut pre = Vec::with_capacity(n + 1);
+    let mut last = 0.0;
+    pre.push(last);
+    for x in v {
+        last += x;
+        pre.push(last);
+    }
+    (1..=n)
+        .map(|k| {
+            let f = k as f64;
+            // a = #{lines j < f / r}, b = #{lines j ≤ f · r}, lines j = 1..=n
+            let lo = f / r;
+            let t = lo as usize; // ⌊lo⌋ (lo > 0)
+            let a = (t - usize::from(t as f64 == lo)).min(n);
+            let b = ((f * r) as usize).min(n);
+            (pre[b] - pre[a]) / (b - a).max(1) as f64
+        })
+        .collect()
+}
+
+/// [`siso_line`] for [`Estimator::H1`], the same numbers without branches.
+#[inline(always)]
+fn h1_line(gff: f64, gfy: Complex64, gyy: f64) -> (Complex64, f64) {
+    let c = (gfy.norm_sqr() / (gff * gyy)).clamp(0.0, 1.0);
+    let h = gfy / gff;
+    let coh = if gff > 0.0 && gyy > 0.0 { c } else { 0.0 };
+    let h = if gff > 0.0 { h } else { Complex64::default() };
+    (h, coh)
 }
 
 /// H and coherence of one line of a single-input channel from its sums `Gff`, `Gfy`,
@@ -1249,7 +1584,7 @@ impl Welch {
         Welch {
             window: hann_kept(n),
             plan: plan(n),
-            spectra: Vec::new(),
+            spectra: KEPT_SPECTRA.take(),
         }
     }
 
@@ -1267,15 +1602,19 @@ impl Welch {
     /// Windows and transforms a batch of segments and adds them to `acc` in order. Each
     /// segment is its `n` samples of every input force (the first `inputs` slices) and
     /// output response, in the accumulator's order; `conv` turns response spectra into
-    /// displacement ([`to_displacement`]).
+    /// displacement ([`to_displacement`]). False when a sample is NaN or infinite (the
+    /// sums are then meaningless).
     fn add_segments(
         &mut self,
         acc: &mut Accumulator,
         conv: Option<&[Complex64]>,
         inputs: usize,
         segments: &[Vec<&[f64]>],
-    ) -> Result<()> {
+    ) -> Result<bool> {
         let (plan, window) = (&*self.plan, &*self.window);
+        if rayon::current_num_threads() == 1 {
+            return self.add_one_by_one(acc, conv, inputs, segments);
+        }
         if self.spectra.len() < segments.len() {
             self.spectra.resize_with(segments.len(), Spectra::default);
         }
@@ -1287,21 +1626,94 @@ impl Welch {
                 (sp.fs.iter_mut().map(|d| (d, None))).chain(sp.ys.iter_mut().map(|d| (d, conv)));
             jobs.extend(seg.iter().zip(dsts).map(|(x, (d, c))| (*x, d, c)));
         }
-        jobs.into_par_iter().try_for_each(|(x, dst, scale)| {
-            BUFFERS.with_borrow_mut(|(buf, scratch)| {
-                buf.resize(window.len(), 0.0);
-                scratch.resize(plan.get_scratch_len(), Complex64::default());
-                fill_windowed(buf, x, window);
-                let done = transform(plan, buf, dst, scratch, scale);
-                if window.len() > PLAN_CACHE_MAX_LEN {
-                    // kept per thread only up to the cached plans' length
-                    (*buf, *scratch) = (Vec::new(), Vec::new());
-                }
-                done
+        let finite = jobs
+            .into_par_iter()
+            .map(|(x, dst, scale)| {
+                BUFFERS.with_borrow_mut(|(buf, scratch)| {
+                    buf.resize(window.len(), 0.0);
+                    scratch.resize(plan.get_scratch_len(), Complex64::default());
+                    let finite = fill_windowed(buf, x, window);
+                    let done = transform(plan, buf, dst, scratch, scale);
+                    if window.len() > PLAN_CACHE_MAX_LEN {
+                        // kept per thread only up to the cached plans' length
+                        (*buf, *scratch) = (Vec::new(), Vec::new());
+                    }
+                    done.map(|()| finite)
+                })
             })
-        })?;
-        acc.add(&self.spectra[..segments.len()]);
-        Ok(())
+            .try_reduce(|| true, |a, b| Ok(a && b))?;
+        if finite {
+            acc.add(&self.spectra[..segments.len()]);
+        }
+        Ok(finite)
+    }
+}
+
+thread_local! {
+    /// The spectra buffers of this thread's last [`Welch`] (segments up to
+    /// [`PLAN_CACHE_MAX_LEN`] points).
+    static KEPT_SPECTRA: std::cell::Cell<Vec<Spectra>> = const { std::cell::Cell::new(Vec::new()) };
+}
+
+impl Drop for Welch {
+    fn drop(&mut self) {
+        if self.window.len() <= PLAN_CACHE_MAX_LEN {
+            let spectra = std::mem::take(&mut self.spectra);
+            // a thread being torn down keeps nothing
+            let _ = KEPT_SPECTRA.try_with(|k| k.set(spectra));
+        }
+    }
+}
+
+impl Welch {
+    /// [`Welch::add_segments`] on one thread: each segment's spectra in turn, each
+    /// output's sums added right after its transform, while its spectrum is in the
+    /// cache (the same sums, bit for bit, as the batches in parallel).
+    fn add_one_by_one(
+        &mut self,
+        acc: &mut Accumulator,
+        conv: Option<&[Complex64]>,
+        inputs: usize,
+        segments: &[Vec<&[f64]>],
+    ) -> Result<bool> {
+        let (plan, window) = (&*self.plan, &*self.window);
+        if self.spectra.is_empty() {
+            self.spectra.push(Spectra::default());
+        }
+        let sp = &mut self.spectra[0];
+        let done = BUFFERS.with_borrow_mut(|(buf, scratch)| {
+            buf.resize(window.len(), 0.0);
+            scratch.resize(plan.get_scratch_len(), Complex64::default());
+            for seg in segments {
+                let (forces, responses) = seg.split_at(inputs);
+                sp.fs.resize_with(inputs, Vec::new);
+                sp.ys.resize_with(1, Vec::new);
+                for (x, dst) in forces.iter().zip(&mut sp.fs) {
+                    if !fill_windowed(buf, x, window) {
+                        return Ok(false);
+                    }
+                    transform(plan, buf, dst, scratch, None)?;
+                }
+                // one input: its auto spectrum goes with the first output's pass
+                let inputs_added = inputs > 1 || responses.is_empty();
+                if inputs_added {
+                    acc.add_inputs(&sp.fs);
+                }
+                for (o, x) in responses.iter().enumerate() {
+                    if !fill_windowed(buf, x, window) {
+                        return Ok(false);
+                    }
+                    transform(plan, buf, &mut sp.ys[0], scratch, None)?;
+                    acc.add_output(o, &sp.fs, &sp.ys[0], conv, inputs_added);
+                }
+                acc.averages += 1;
+            }
+            Ok(true)
+        });
+        if window.len() > PLAN_CACHE_MAX_LEN {
+            BUFFERS.with_borrow_mut(|b| *b = Default::default());
+        }
+        done
     }
 }
 
@@ -1360,6 +1772,15 @@ fn continuous(records: &[TimeSeries], infos: &[RecordInfo], ctx: &mut Ctx) -> Re
             let rec = &records[r];
             let conv = to_displacement(rec.response_kind, n, ctx.dt, 0.0);
             let (hop, count) = welch_segments(rec.len(), n, ctx.opts.overlap);
+            // the responses are checked for NaN/Inf as they are windowed, except what no
+            // segment covers (the forces were checked before)
+            let covered = if count == 0 { 0 } else { (count - 1) * hop + n };
+            for a in rec.response_axes() {
+                let v = rec.response(a).unwrap_or(&[]);
+                let from = if outputs.contains(&a) { covered } else { 0 };
+                check_finite(rec, "response", &v[from..])
+                    .map_err(|_| not_finite(rec, "response", v))?;
+            }
             if count == 0 {
                 ctx.dropped
                     .push(too_short_for_segment(&rec.source, rec.len(), n));
@@ -1377,7 +1798,13 @@ fn continuous(records: &[TimeSeries], infos: &[RecordInfo], ctx: &mut Ctx) -> Re
                             .collect()
                     })
                     .collect();
-                welch.add_segments(&mut acc, conv.as_deref(), inputs.len(), &segments)?;
+                if !welch.add_segments(&mut acc, conv.as_deref(), inputs.len(), &segments)? {
+                    let v = (rec.response_axes().into_iter())
+                        .filter_map(|a| rec.response(a))
+                        .find(|v| v.iter().any(|x| !x.is_finite()))
+                        .unwrap_or(&[]);
+                    return Err(not_finite(rec, "response", v));
+                }
             }
         }
         check_averages(&acc, n, ctx)?;
@@ -1386,10 +1813,33 @@ fn continuous(records: &[TimeSeries], infos: &[RecordInfo], ctx: &mut Ctx) -> Re
     welch_estimate(accs, n, ctx)
 }
 
-fn fill_windowed(buf: &mut [f64], x: &[f64], w: &[f64]) {
-    for ((b, &v), &wi) in buf.iter_mut().zip(x).zip(w) {
-        *b = v * wi;
+/// `buf = x · w` sample by sample; false when a sample of `x` is NaN or infinite (checked
+/// on the way: the samples are loaded anyway).
+fn fill_windowed(buf: &mut [f64], x: &[f64], w: &[f64]) -> bool {
+    // x·0 is NaN exactly for NaN and ±Inf; 8 partial sums keep the adds off the
+    // critical path
+    const L: usize = 8;
+    let mut chk = [0.0f64; L];
+    let n = buf.len().min(x.len()).min(w.len());
+    let (buf, x, w) = (&mut buf[..n], &x[..n], &w[..n]);
+    let mut bs = buf.chunks_exact_mut(L);
+    let (mut xs, mut ws) = (x.chunks_exact(L), w.chunks_exact(L));
+    for ((b, x), w) in (&mut bs).zip(&mut xs).zip(&mut ws) {
+        for l in 0..L {
+            b[l] = x[l] * w[l];
+            chk[l] += x[l] * 0.0;
+        }
     }
+    for ((b, &v), &wi) in bs
+        .into_remainder()
+        .iter_mut()
+        .zip(xs.remainder())
+        .zip(ws.remainder())
+    {
+        *b = v * wi;
+        chk[0] += v * 0.0;
+    }
+    chk.iter().sum::<f64>() == 0.0
 }
 
 /// Rectangular-window DFT ratio for deterministic excitation.
@@ -1578,6 +2028,22 @@ mod tests {
         assert!(impact::flat_top(&[0.0, 1.0, 5.0, 5.0, 5.0, 2.0]));
         assert!(!impact::flat_top(&[0.0, 1.0, 5.0, 4.9, 5.0 - 1e-3, 2.0]));
         assert!(impact::flat_top(&[0.0, -5.0, -5.0, -5.0]));
+    }
+
+    #[test]
+    fn octave_smoothing_on_lines_equals_the_general_one() {
+        for n in [0, 1, 2, 17, 18, 100, 1000, 4097] {
+            let v: Vec<f64> = (0..n).map(|k| ((k * 7919 % 1013) as f64).sin()).collect();
+            let lines: Vec<f64> = (1..=n).map(|k| k as f64).collect();
+            for oct in [1.0 / 12.0, 1.0 / 3.0, 1.0] {
+                let (a, b) = (
+                    smooth_octave_lines(&v, oct),
+                    crate::plan::smooth_octave(&lines, &v, oct),
+                );
+                assert!(a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()));
+                assert_eq!(a.len(), b.len());
+            }
+        }
     }
 
     #[test]

@@ -495,14 +495,48 @@ pub fn update_modes_with(
         ));
     }
     let n_res = n_data + lay.n();
+    // the held modes' and the feedthrough's part of every point's model value: fixed
+    // during the update, so each evaluation adds only the free modes' terms
+    let held: Vec<Vec<Complex64>> = points
+        .iter()
+        .zip(&chan_idx)
+        .map(|(p, ci)| {
+            let Some(ci) = *ci else {
+                return vec![Complex64::default(); p.freqs_hz.len()];
+            };
+            let ch = &model.channels[ci];
+            p.freqs_hz
+                .iter()
+                .map(|&f| {
+                    let s = Complex64::new(0.0, 2.0 * PI * f);
+                    let mut h = Complex64::new(ch.d, 0.0);
+                    for (k, (m, n)) in model.modes.iter().zip(&ch.num).enumerate() {
+                        if !lay.free.contains(&k) {
+                            h += (s * n.b1 + n.b0) / m.den(s);
+                        }
+                    }
+                    h
+                })
+                .collect()
+        })
+        .collect();
     let residuals = |theta: &[f64]| -> (DVector<f64>, ModalModel) {
         let m = unpack(model, &lay, theta, &scale);
         let mut r = DVector::zeros(n_res);
         let mut i = 0;
-        for (p, ci) in points.iter().zip(&chan_idx) {
-            for ((f, h), s) in p.freqs_hz.iter().zip(&p.h).zip(&p.sigma) {
+        for ((p, ci), held) in points.iter().zip(&chan_idx).zip(&held) {
+            for (((f, h), s), hv) in p.freqs_hz.iter().zip(&p.h).zip(&p.sigma).zip(held) {
                 let e = match ci {
-                    Some(ci) => (m.eval_hz(*ci, *f) - h) / *s,
+                    Some(ci) => {
+                        let sv = Complex64::new(0.0, 2.0 * PI * f);
+                        let ch = &m.channels[*ci];
+                        let mut v = *hv;
+                        for &k in &lay.free {
+                            let n = ch.num[k];
+                            v += (sv * n.b1 + n.b0) / m.modes[k].den(sv);
+                        }
+                        (v - h) / *s
+                    }
                     None => Complex64::new(0.0, 0.0),
                 };
                 r[i] = e.re;
@@ -555,6 +589,28 @@ pub fn update_modes_with(
         let _ = theta;
         jm
     };
+    // the Jacobian's nonzero columns of each data row (the free modes' ln ω, ln ζ and
+    // the row's channel's numerators) and of each prior row (its own)
+    let chan_cols: Vec<Vec<usize>> = (0..lay.n_ch)
+        .map(|ci| {
+            (0..lay.free.len())
+                .flat_map(|j| {
+                    let o = j * per;
+                    [o, o + 1, o + 2 + 2 * ci, o + 3 + 2 * ci]
+                })
+                .collect()
+        })
+        .collect();
+    let prior_cols: Vec<usize> = (0..lay.n()).collect();
+    let row_cols: Vec<&[usize]> = {
+        let mut rows: Vec<&[usize]> = Vec::with_capacity(n_res);
+        for (p, ci) in points.iter().zip(&chan_idx) {
+            let cols: &[usize] = ci.map_or(&[], |ci| &chan_cols[ci]);
+            rows.extend(std::iter::repeat_n(cols, 2 * p.h.len()));
+        }
+        rows.extend((0..lay.n()).map(|j| &prior_cols[j..=j]));
+        rows
+    };
     let mut theta = theta0.clone();
     let (mut r, mut m) = residuals(&theta);
     let chi_before = (r.rows(0, n_data).norm_squared() / n_data as f64).sqrt();
@@ -564,9 +620,7 @@ pub fn update_modes_with(
     while it < max_iter {
         it += 1;
         let jm = jacobian(&theta, &m);
-        let jt = jm.transpose();
-        let jtj = &jt * &jm;
-        let g = &jt * &r;
+        let (jtj, g) = normal_equations(&jm, &r, &row_cols);
         let mut improved = false;
         for _ in 0..12 {
             let mut a = jtj.clone();
@@ -618,7 +672,7 @@ pub fn update_modes_with(
     // included), scaled by the misfit per degree of freedom when that exceeds 1
     let posterior_sd = if opts.posterior {
         let jm = jacobian(&theta, &m);
-        let jtj = jm.transpose() * &jm;
+        let (jtj, _) = normal_equations(&jm, &r, &row_cols);
         let s2 =
             (r.rows(0, n_data).norm_squared() / (n_data as f64 - lay.n() as f64).max(1.0)).max(1.0);
         let sd = |i: usize, inv: &DMatrix<f64>| (inv[(i, i)].max(0.0) * s2).sqrt();
@@ -641,6 +695,33 @@ pub fn update_modes_with(
         at_bound,
         posterior_sd,
     })
+}
+
+/// `(JᵀJ, Jᵀr)` of a Jacobian whose row `i` is zero outside the columns `cols[i]`: a few
+/// products per row instead of a dense product (a row of the modal update's Jacobian has
+/// four nonzeros per free mode out of `2 + 2 × channels`).
+fn normal_equations(
+    jm: &DMatrix<f64>,
+    r: &DVector<f64>,
+    cols: &[&[usize]],
+) -> (DMatrix<f64>, DVector<f64>) {
+    let n = jm.ncols();
+    let (mut jtj, mut g) = (DMatrix::zeros(n, n), DVector::zeros(n));
+    for (i, cs) in cols.iter().enumerate() {
+        for (x, &a) in cs.iter().enumerate() {
+            let va = jm[(i, a)];
+            g[a] += va * r[i];
+            for &b in &cs[x..] {
+                jtj[(a, b)] += va * jm[(i, b)];
+            }
+        }
+    }
+    for a in 0..n {
+        for b in 0..a {
+            jtj[(a, b)] = jtj[(b, a)];
+        }
+    }
+    (jtj, g)
 }
 
 /// `target` changed like `old → new` with weight `w`: relative when old and new share a

@@ -31,7 +31,7 @@ impl RecordInfo {
         Self::from_stats(&source(scan), rms, scan.response_axes(), |a| {
             scan.force[a.index()]
                 .as_ref()
-                .is_some_and(|c| impulsive(&c.subsample, (c.min, c.max)))
+                .is_some_and(|c| impulsive(&mut c.subsample.clone(), (c.min, c.max)))
         })
     }
 }
@@ -97,7 +97,10 @@ fn streamed(scan: &RecordScan, opts: &FrfOptions) -> Result<FrfEstimate> {
                 if rings[0].len() == n {
                     if done < count {
                         let segment = rings.iter().map(Vec::as_slice).collect();
-                        welch.add_segments(&mut acc, conv.as_deref(), ni, &[segment])?;
+                        if !welch.add_segments(&mut acc, conv.as_deref(), ni, &[segment])? {
+                            // the reader lets no NaN/Inf through
+                            return Err(crate::read::changed_while_read(&scan.source));
+                        }
                         done += 1;
                     }
                     for ring in &mut rings {
