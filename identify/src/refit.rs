@@ -171,6 +171,14 @@ pub struct RefitReport {
     /// How mtwin's update was validated on held-out data (methods `modal` and `time`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub held_out: Option<HeldOut>,
+    /// The operating spectra the refit used, for a report (not written to files).
+    #[serde(skip)]
+    pub spectra: Option<OperatingSpectra>,
+    /// The first record's measured and simulated responses, before and after the
+    /// update (the same before and after when nothing changed), for a report (not
+    /// written to files).
+    #[serde(skip)]
+    pub responses: Option<(Vec<AxisTrace>, Vec<AxisTrace>)>,
 }
 
 /// Validation of mtwin's modal update on held-out data: every record is cut in two
@@ -200,32 +208,31 @@ pub struct HeldOut {
 /// One response axis: the axis, the measured and the simulated samples.
 pub type AxisTrace = (Axis, Vec<f64>, Vec<f64>);
 
-/// Simulated response of a twin (with its extensions) for a record, in the record's
-/// response quantity, per response axis present in both (the band-limited hold of a
-/// measured record, [`crate::simulate::Hold::BandLimited`]).
-pub fn simulate_record(twin: &Twin, ts: &TimeSeries) -> Result<Vec<AxisTrace>> {
-    let y = crate::extended::simulate_as_measured(twin, ts)?;
-    let outs: Vec<Axis> = twin.channels.iter().map(|c| c.output).collect();
-    let mut res = Vec::new();
-    for a in Axis::ALL {
-        let Some(meas) = ts.response(a) else { continue };
-        if !outs.contains(&a) {
-            continue;
-        }
-        res.push((a, meas.to_vec(), y[a.index()].clone()));
-    }
-    Ok(res)
-}
-
 /// Fit \[%\] of the twin's simulation against the measured responses (all axes pooled).
 /// Records where the axes stand still are simulated at their own rate
 /// ([`crate::extended::simulate_as_measured_lti`], the same response up to rounding).
 pub fn time_fit(twin: &Twin, records: &[TimeSeries]) -> Result<f64> {
+    time_fit_traces(twin, records).map(|(fit, _)| fit)
+}
+
+/// [`time_fit`] and the first record's traces: per response axis the twin models, the
+/// axis, the measured and the simulated samples.
+fn time_fit_traces(twin: &Twin, records: &[TimeSeries]) -> Result<(f64, Vec<AxisTrace>)> {
     let mut meas = Vec::new();
     let mut sim = Vec::new();
+    let mut first = Vec::new();
     let outs: Vec<Axis> = twin.channels.iter().map(|c| c.output).collect();
-    for ts in records {
+    for (i, ts) in records.iter().enumerate() {
         let y = crate::extended::simulate_as_measured_lti(twin, ts)?;
+        if i == 0 {
+            first = Axis::ALL
+                .into_iter()
+                .filter_map(|a| {
+                    let m = ts.response(a).filter(|_| outs.contains(&a))?;
+                    Some((a, m.to_vec(), y[a.index()].clone()))
+                })
+                .collect();
+        }
         let traces = Axis::ALL.into_iter().filter_map(|a| {
             let m = ts.response(a).filter(|_| outs.contains(&a))?;
             Some((m, &y[a.index()]))
@@ -242,7 +249,7 @@ pub fn time_fit(twin: &Twin, records: &[TimeSeries]) -> Result<f64> {
             "the data has no response column the twin models".into(),
         ));
     }
-    Ok(fit_percent_real(&meas, &sim))
+    Ok((fit_percent_real(&meas, &sim), first))
 }
 
 /// Welch segment length: lines no wider than an eighth of the narrowest half-power bandwidth of
@@ -890,7 +897,7 @@ pub fn refit(
     let lines = selected_lines(&sp, opts);
     let pts = operating_points(&sp, &lines, &old, None);
     let drift_chi = chi(&old, &pts, 0.0);
-    let drift_fit = time_fit(twin, records)?;
+    let (drift_fit, traces_before) = time_fit_traces(twin, records)?;
     let drifted = drift_fit < 100.0 - opts.drift_threshold_pct || drift_chi > opts.drift_chi;
     let mut report = RefitReport {
         method: opts.method,
@@ -904,6 +911,8 @@ pub fn refit(
         pose_weights: Vec::new(),
         output_error: None,
         held_out: None,
+        spectra: Some(sp.clone()),
+        responses: Some((traces_before.clone(), traces_before)),
     };
     if !(drifted || opts.force) {
         return Ok((twin.clone(), report));
@@ -1141,7 +1150,11 @@ pub fn refit(
         })
         .collect();
     report.updated = true;
-    report.fit_after_pct = time_fit(&out, records)?;
+    let (fit_after, traces_after) = time_fit_traces(&out, records)?;
+    report.fit_after_pct = fit_after;
+    if let Some((_, after)) = &mut report.responses {
+        *after = traces_after;
+    }
     if std::env::var_os("MTWIN_DEBUG_REFIT").is_some() {
         if let Some(h) = &report.held_out {
             eprintln!("refit held-out: {}", h.note);

@@ -8,8 +8,7 @@ use crate::report::{
 };
 use identify::axis::PoseText;
 use identify::model::ModalModel;
-use identify::operating::operating_spectra;
-use identify::refit::{default_nfft, mode_numbers, simulate_record, RefitReport};
+use identify::refit::{mode_numbers, RefitReport};
 use identify::timeseries::TimeSeries;
 use identify::twin::Twin;
 use std::f64::consts::PI;
@@ -112,8 +111,8 @@ pub fn refit_report(old: &Twin, new: &Twin, rep: &RefitReport, series: &[TimeSer
         }
         let _ = writeln!(b, "</table>");
     }
-    frf_section(&mut b, old, new, rep, series);
-    response_section(&mut b, old, new, series);
+    frf_section(&mut b, old, new, rep);
+    response_section(&mut b, rep, series);
     if !rep.pose_weights.is_empty() {
         let _ = writeln!(
             b,
@@ -134,12 +133,12 @@ fn model_at(twin: &Twin, pose: [f64; 3]) -> Option<ModalModel> {
 }
 
 /// Operating H1 at the lines used vs the twin's FRF before and after.
-fn frf_section(b: &mut String, old: &Twin, new: &Twin, rep: &RefitReport, series: &[TimeSeries]) {
+fn frf_section(b: &mut String, old: &Twin, new: &Twin, rep: &RefitReport) {
     let (Some(m_old), Some(m_new)) = (model_at(old, rep.pose), model_at(new, rep.pose)) else {
         return;
     };
-    let Some(first) = series.first() else { return };
-    let Ok(sp) = operating_spectra(series, default_nfft(first, &m_old)) else {
+    // the spectra the refit itself used
+    let Some(sp) = rep.spectra.as_ref() else {
         return;
     };
     let hi = m_old
@@ -263,9 +262,10 @@ fn frf_section(b: &mut String, old: &Twin, new: &Twin, rep: &RefitReport, series
 }
 
 /// Measured vs simulated response (first record), before and after.
-fn response_section(b: &mut String, old: &Twin, new: &Twin, series: &[TimeSeries]) {
+fn response_section(b: &mut String, rep: &RefitReport, series: &[TimeSeries]) {
     let Some(ts) = series.first() else { return };
-    let (Ok(before), Ok(after)) = (simulate_record(old, ts), simulate_record(new, ts)) else {
+    // the responses the refit simulated to score itself
+    let Some((before, after)) = rep.responses.as_ref() else {
         return;
     };
     let _ = writeln!(
@@ -280,7 +280,7 @@ fn response_section(b: &mut String, old: &Twin, new: &Twin, series: &[TimeSeries
     } else {
         "displacement [m]"
     };
-    for ((axis, meas, sb), (_, _, sa)) in before.iter().zip(&after) {
+    for ((axis, meas, sb), (_, _, sa)) in before.iter().zip(after.iter()) {
         let n = meas.len().min(MAX_SAMPLES_SHOWN);
         let t: Vec<f64> = (0..n).map(|i| i as f64 * ts.dt).collect();
         let eb: Vec<f64> = (0..n).map(|i| meas[i] - sb[i]).collect();

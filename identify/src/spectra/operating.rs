@@ -11,7 +11,7 @@ use rustfft::FftPlanner;
 use std::f64::consts::PI;
 
 /// Cross-spectral FRF estimate of operating records.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct OperatingSpectra {
     /// Frequency lines \[Hz\] (0 Hz excluded).
     pub freqs_hz: Vec<f64>,
