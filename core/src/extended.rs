@@ -2,7 +2,7 @@
 //!
 //! Everything runs through the state-space core ([`crate::simulate::Simulator`], the one
 //! the FMU uses): exact discretisation for linear modes, classical Runge–Kutta for a mode
-//! with a cubic stiffness term ([`Simulator::set_cubic`]); a constant delay shifts the response by linear interpolation between
+//! with a cubic stiffness term ([`crate::simulate::Simulator::set_cubic`]); a constant delay shifts the response by linear interpolation between
 //! samples; an external vibration is added as sinusoids of absolute time.
 //!
 //! A cubic term acts on each force axis' modal coordinate separately, which is exact
