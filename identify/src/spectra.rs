@@ -1037,7 +1037,14 @@ impl Accumulator {
     /// `lim` times the peak, the spectrum smoothed over ±1/12 octave first when `smooth`.
     fn force_band_within(&self, smooth: bool, lim: f64) -> Option<(usize, usize)> {
         let ni = self.inputs.len();
-        let raw = |k: usize| -> f64 { (0..ni).map(|i| self.gff[self.at(i * ni + i, k)].re).sum() };
+        let raw = |k: usize| -> f64 {
+            if ni == 1 {
+                // (a sum of one term is that term)
+                self.gff[k].re
+            } else {
+                (0..ni).map(|i| self.gff[self.at(i * ni + i, k)].re).sum()
+            }
+        };
         // averaged estimates smoothed over ±1/12 octave: a random force's spectrum from a
         // few averages dips 20 dB below its largest line at random lines, and a comb from
         // a double hit has notches; neither ends the band (measured: a flat 10-4096 Hz
@@ -1211,13 +1218,15 @@ impl OctaveSmoother {
     #[inline]
     fn at(&self, k: usize) -> f64 {
         let n = self.pre.len() - 1;
-        let f = k as f64;
+        // the conversions through i64 (one instruction each, exact: line numbers and
+        // counts are far below 2^53, and lo > 0)
+        let f = k as i64 as f64;
         // a = #{lines j < f / r}, b = #{lines j ≤ f · r}, lines j = 1..=n
         let lo = f / self.r;
-        let t = lo as usize; // ⌊lo⌋ (lo > 0)
-        let a = (t - usize::from(t as f64 == lo)).min(n);
-        let b = ((f * self.r) as usize).min(n);
-        (self.pre[b] - self.pre[a]) / (b - a).max(1) as f64
+        let t = lo as i64; // ⌊lo⌋ (lo > 0)
+        let a = ((t - i64::from(t as f64 == lo)) as usize).min(n);
+        let b = ((f * self.r) as i64 as usize).min(n);
+        (self.pre[b] - self.pre[a]) / (b - a).max(1) as i64 as f64
     }
 }
 
