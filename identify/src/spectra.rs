@@ -1637,8 +1637,8 @@ impl Welch {
     /// Windows and transforms a batch of segments and adds them to `acc` in order. Each
     /// segment is its `n` samples of every input force (the first `inputs` slices) and
     /// output response, in the accumulator's order; `conv` turns response spectra into
-    /// displacement ([`to_displacement`]). False when a sample is NaN or infinite (the
-    /// sums are then meaningless).
+    /// displacement ([`to_displacement`]). False when a response sample is NaN or
+    /// infinite (the sums are then meaningless); the callers have checked the forces.
     fn add_segments(
         &mut self,
         acc: &mut Accumulator,
@@ -1659,15 +1659,22 @@ impl Welch {
             sp.ys.resize_with(seg.len() - inputs, Vec::new);
             let dsts =
                 (sp.fs.iter_mut().map(|d| (d, None))).chain(sp.ys.iter_mut().map(|d| (d, conv)));
-            jobs.extend(seg.iter().zip(dsts).map(|(x, (d, c))| (*x, d, c)));
+            jobs.extend(
+                (seg.iter().zip(dsts).enumerate()).map(|(i, (x, (d, c)))| (*x, d, c, i < inputs)),
+            );
         }
         let finite = jobs
             .into_par_iter()
-            .map(|(x, dst, scale)| {
+            .map(|(x, dst, scale, force)| {
                 BUFFERS.with_borrow_mut(|(buf, scratch)| {
                     buf.resize(window.len(), 0.0);
                     scratch.resize(plan.get_scratch_len(), Complex64::default());
-                    let finite = fill_windowed(buf, x, window);
+                    // (the callers checked the forces)
+                    let finite = if force {
+                        fill_windowed_unchecked(buf, x, window)
+                    } else {
+                        fill_windowed(buf, x, window)
+                    };
                     let done = transform(plan, buf, dst, scratch, scale);
                     if window.len() > PLAN_CACHE_MAX_LEN {
                         // kept per thread only up to the cached plans' length
@@ -1724,9 +1731,8 @@ impl Welch {
                 sp.fs.resize_with(inputs, Vec::new);
                 sp.ys.resize_with(1, Vec::new);
                 for (x, dst) in forces.iter().zip(&mut sp.fs) {
-                    if !fill_windowed(buf, x, window) {
-                        return Ok(false);
-                    }
+                    // (the callers checked the forces)
+                    fill_windowed_unchecked(buf, x, window);
                     transform(plan, buf, dst, scratch, None)?;
                 }
                 // one input: its auto spectrum goes with the first output's pass
@@ -1877,6 +1883,14 @@ fn fill_windowed(buf: &mut [f64], x: &[f64], w: &[f64]) -> bool {
         chk[0] += *b;
     }
     chk.iter().sum::<f64>().is_finite() || x.iter().all(|v| v.is_finite())
+}
+
+/// `buf = x · w` sample by sample, for samples known to be finite (true).
+fn fill_windowed_unchecked(buf: &mut [f64], x: &[f64], w: &[f64]) -> bool {
+    for ((b, x), w) in buf.iter_mut().zip(x).zip(w) {
+        *b = x * w;
+    }
+    true
 }
 
 /// Rectangular-window DFT ratio for deterministic excitation.
