@@ -1037,34 +1037,27 @@ impl Accumulator {
     /// `lim` times the peak, the spectrum smoothed over ±1/12 octave first when `smooth`.
     fn force_band_within(&self, smooth: bool, lim: f64) -> Option<(usize, usize)> {
         let ni = self.inputs.len();
-        let raw: Vec<f64> = (0..self.nl)
-            .map(|k| (0..ni).map(|i| self.gff[self.at(i * ni + i, k)].re).sum())
-            .collect();
+        let raw = |k: usize| -> f64 {
+            if ni == 1 {
+                // (a sum of one term is that term)
+                self.gff[k].re
+            } else {
+                (0..ni).map(|i| self.gff[self.at(i * ni + i, k)].re).sum()
+            }
+        };
         // averaged estimates smoothed over ±1/12 octave: a random force's spectrum from a
         // few averages dips 20 dB below its largest line at random lines, and a comb from
         // a double hit has notches; neither ends the band (measured: a flat 10-4096 Hz
         // random force gave bands of 1.1-2.9 kHz before). A single deterministic record (a
         // sweep) is not: its band ends where its spectrum does, and smoothing carried a
         // linear chirp's band into the anti-alias filter's noise (99.8 -> 94 % vs truth).
-        let p = if smooth {
-            smooth_octave_lines(&raw, 1.0 / 12.0)
+        // The smoothed lines are computed where they are looked at (no buffer of them).
+        if smooth {
+            let s = OctaveSmoother::new((0..self.nl).map(raw), 1.0 / 12.0);
+            band_around_peak(self.nl, |k| s.at(k + 1), lim)
         } else {
-            raw
-        };
-        let (kmax, &pmax) = p.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1))?;
-        if pmax <= 0.0 {
-            return None;
+            band_around_peak(self.nl, raw, lim)
         }
-        let lim = lim * pmax;
-        let mut lo = kmax;
-        while lo > 0 && p[lo - 1] >= lim {
-            lo -= 1;
-        }
-        let mut hi = kmax;
-        while hi + 1 < p.len() && p[hi + 1] >= lim {
-            hi += 1;
-        }
-        Some((lo + 1, hi + 1))
     }
 
     /// FRF channels (per output, per input) and how many lines were singular.
@@ -1086,13 +1079,10 @@ impl Accumulator {
                 .enumerate()
                 .map(|(o, &out)| {
                     let (gyy, gfy) = (&self.gyy[o * nl..][..nl], &self.gfy[o * nl..][..nl]);
-                    let mut h = vec![Complex64::default(); nl];
-                    let mut coh = vec![0.0; nl];
-                    for ((((h, c), g), &gyy), &gfy) in
-                        h.iter_mut().zip(&mut coh).zip(gff).zip(gyy).zip(gfy)
-                    {
-                        (*h, *c) = h1_line(g.re, gfy, gyy);
-                    }
+                    // written once each (no zeroed buffers first)
+                    let (h, coh): (Vec<Complex64>, Vec<f64>) = (gff.iter().zip(gyy).zip(gfy))
+                        .map(|((g, &gyy), &gfy)| h1_line(g.re, gfy, gyy))
+                        .unzip();
                     FrfChannel {
                         channel: Channel::new(out, self.inputs[0]),
                         h,
@@ -1177,30 +1167,75 @@ impl Accumulator {
     }
 }
 
-/// [`crate::plan::smooth_octave`] of `v` on the lines `1, 2, …, v.len()`, the same
-/// numbers: each window's ends are counted from its edge frequencies instead of walked to
-/// (the walk's branches are taken at random on a fine grid).
-fn smooth_octave_lines(v: &[f64], octaves: f64) -> Vec<f64> {
-    let r = 2f64.powf(octaves);
-    let n = v.len();
-    let mut pre = Vec::with_capacity(n + 1);
-    let mut last = 0.0;
-    pre.push(last);
-    for x in v {
-        last += x;
-        pre.push(last);
+/// Lines `(lo, hi)` (1-based) of the contiguous range around the largest of the `n`
+/// values `p(0..n)` (the last of equal ones) where they stay at least `lim` times it;
+/// `None` when there are none or the largest is not positive.
+fn band_around_peak(n: usize, p: impl Fn(usize) -> f64, lim: f64) -> Option<(usize, usize)> {
+    let (kmax, pmax) = (0..n)
+        .map(&p)
+        .enumerate()
+        .max_by(|a, b| a.1.total_cmp(&b.1))?;
+    if pmax <= 0.0 {
+        return None;
     }
-    (1..=n)
-        .map(|k| {
-            let f = k as f64;
-            // a = #{lines j < f / r}, b = #{lines j ≤ f · r}, lines j = 1..=n
-            let lo = f / r;
-            let t = lo as usize; // ⌊lo⌋ (lo > 0)
-            let a = (t - usize::from(t as f64 == lo)).min(n);
-            let b = ((f * r) as usize).min(n);
-            (pre[b] - pre[a]) / (b - a).max(1) as f64
-        })
-        .collect()
+    let lim = lim * pmax;
+    let mut lo = kmax;
+    while lo > 0 && p(lo - 1) >= lim {
+        lo -= 1;
+    }
+    let mut hi = kmax;
+    while hi + 1 < n && p(hi + 1) >= lim {
+        hi += 1;
+    }
+    Some((lo + 1, hi + 1))
+}
+
+/// [`crate::plan::smooth_octave`] on the lines `1, 2, …, n`, line by line from the
+/// prefix sums of the values: each window's ends are counted from its edge frequencies
+/// instead of walked to (the walk's branches are taken at random on a fine grid).
+struct OctaveSmoother {
+    r: f64,
+    /// `pre[j]` = sum of the first `j` values.
+    pre: Vec<f64>,
+}
+
+impl OctaveSmoother {
+    fn new(v: impl ExactSizeIterator<Item = f64>, octaves: f64) -> Self {
+        let mut pre = Vec::with_capacity(v.len() + 1);
+        let mut last = 0.0;
+        pre.push(last);
+        for x in v {
+            last += x;
+            pre.push(last);
+        }
+        OctaveSmoother {
+            r: 2f64.powf(octaves),
+            pre,
+        }
+    }
+
+    /// The smoothed value of line `k` (1-based, `k ≤ n`).
+    #[inline]
+    fn at(&self, k: usize) -> f64 {
+        let n = self.pre.len() - 1;
+        // the conversions through i64 (one instruction each, exact: line numbers and
+        // counts are far below 2^53, and lo > 0)
+        let f = k as i64 as f64;
+        // a = #{lines j < f / r}, b = #{lines j ≤ f · r}, lines j = 1..=n
+        let lo = f / self.r;
+        let t = lo as i64; // ⌊lo⌋ (lo > 0)
+        let a = ((t - i64::from(t as f64 == lo)) as usize).min(n);
+        let b = ((f * self.r) as i64 as usize).min(n);
+        (self.pre[b] - self.pre[a]) / (b - a).max(1) as i64 as f64
+    }
+}
+
+/// [`crate::plan::smooth_octave`] of `v` on the lines `1, 2, …, v.len()`, the same
+/// numbers ([`OctaveSmoother`]).
+#[cfg(test)]
+fn smooth_octave_lines(v: &[f64], octaves: f64) -> Vec<f64> {
+    let s = OctaveSmoother::new(v.iter().copied(), octaves);
+    (1..=v.len()).map(|k| s.at(k)).collect()
 }
 
 /// [`siso_line`] for [`Estimator::H1`], the same numbers without branches.
@@ -1602,8 +1637,8 @@ impl Welch {
     /// Windows and transforms a batch of segments and adds them to `acc` in order. Each
     /// segment is its `n` samples of every input force (the first `inputs` slices) and
     /// output response, in the accumulator's order; `conv` turns response spectra into
-    /// displacement ([`to_displacement`]). False when a sample is NaN or infinite (the
-    /// sums are then meaningless).
+    /// displacement ([`to_displacement`]). False when a response sample is NaN or
+    /// infinite (the sums are then meaningless); the callers have checked the forces.
     fn add_segments(
         &mut self,
         acc: &mut Accumulator,
@@ -1624,15 +1659,22 @@ impl Welch {
             sp.ys.resize_with(seg.len() - inputs, Vec::new);
             let dsts =
                 (sp.fs.iter_mut().map(|d| (d, None))).chain(sp.ys.iter_mut().map(|d| (d, conv)));
-            jobs.extend(seg.iter().zip(dsts).map(|(x, (d, c))| (*x, d, c)));
+            jobs.extend(
+                (seg.iter().zip(dsts).enumerate()).map(|(i, (x, (d, c)))| (*x, d, c, i < inputs)),
+            );
         }
         let finite = jobs
             .into_par_iter()
-            .map(|(x, dst, scale)| {
+            .map(|(x, dst, scale, force)| {
                 BUFFERS.with_borrow_mut(|(buf, scratch)| {
                     buf.resize(window.len(), 0.0);
                     scratch.resize(plan.get_scratch_len(), Complex64::default());
-                    let finite = fill_windowed(buf, x, window);
+                    // (the callers checked the forces)
+                    let finite = if force {
+                        fill_windowed_unchecked(buf, x, window)
+                    } else {
+                        fill_windowed(buf, x, window)
+                    };
                     let done = transform(plan, buf, dst, scratch, scale);
                     if window.len() > PLAN_CACHE_MAX_LEN {
                         // kept per thread only up to the cached plans' length
@@ -1689,9 +1731,8 @@ impl Welch {
                 sp.fs.resize_with(inputs, Vec::new);
                 sp.ys.resize_with(1, Vec::new);
                 for (x, dst) in forces.iter().zip(&mut sp.fs) {
-                    if !fill_windowed(buf, x, window) {
-                        return Ok(false);
-                    }
+                    // (the callers checked the forces)
+                    fill_windowed_unchecked(buf, x, window);
                     transform(plan, buf, dst, scratch, None)?;
                 }
                 // one input: its auto spectrum goes with the first output's pass
@@ -1816,8 +1857,10 @@ fn continuous(records: &[TimeSeries], infos: &[RecordInfo], ctx: &mut Ctx) -> Re
 /// `buf = x · w` sample by sample; false when a sample of `x` is NaN or infinite (checked
 /// on the way: the samples are loaded anyway).
 fn fill_windowed(buf: &mut [f64], x: &[f64], w: &[f64]) -> bool {
-    // x·0 is NaN exactly for NaN and ±Inf; 8 partial sums keep the adds off the
-    // critical path
+    // the products summed: a NaN or infinite sample makes its product NaN or infinite
+    // (w is finite, 0·Inf is NaN) and so the sum, which no finite term brings back; a
+    // sum that overflowed from finite products is told apart by a look at the samples.
+    // 8 partial sums keep the adds off the critical path
     const L: usize = 8;
     let mut chk = [0.0f64; L];
     let n = buf.len().min(x.len()).min(w.len());
@@ -1827,7 +1870,7 @@ fn fill_windowed(buf: &mut [f64], x: &[f64], w: &[f64]) -> bool {
     for ((b, x), w) in (&mut bs).zip(&mut xs).zip(&mut ws) {
         for l in 0..L {
             b[l] = x[l] * w[l];
-            chk[l] += x[l] * 0.0;
+            chk[l] += b[l];
         }
     }
     for ((b, &v), &wi) in bs
@@ -1837,9 +1880,17 @@ fn fill_windowed(buf: &mut [f64], x: &[f64], w: &[f64]) -> bool {
         .zip(ws.remainder())
     {
         *b = v * wi;
-        chk[0] += v * 0.0;
+        chk[0] += *b;
     }
-    chk.iter().sum::<f64>() == 0.0
+    chk.iter().sum::<f64>().is_finite() || x.iter().all(|v| v.is_finite())
+}
+
+/// `buf = x · w` sample by sample, for samples known to be finite (true).
+fn fill_windowed_unchecked(buf: &mut [f64], x: &[f64], w: &[f64]) -> bool {
+    for ((b, x), w) in buf.iter_mut().zip(x).zip(w) {
+        *b = x * w;
+    }
+    true
 }
 
 /// Rectangular-window DFT ratio for deterministic excitation.
@@ -2042,6 +2093,73 @@ mod tests {
                 );
                 assert!(a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()));
                 assert_eq!(a.len(), b.len());
+            }
+        }
+    }
+
+    #[test]
+    fn windowing_flags_exactly_the_non_finite_samples() {
+        let w = hann(64);
+        let mut buf = vec![0.0; 64];
+        let ok: Vec<f64> = (0..64).map(|i| (i as f64).sin()).collect();
+        assert!(fill_windowed(&mut buf, &ok, &w));
+        assert!(buf.iter().zip(&ok).zip(&w).all(|((b, x), w)| *b == x * w));
+        // finite samples whose products overflow the check's sum
+        assert!(fill_windowed(&mut buf, &[1.7e308; 64], &w));
+        for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+            for at in [0, 5, 63] {
+                let mut x = ok.clone();
+                x[at] = bad;
+                assert!(!fill_windowed(&mut buf, &x, &w), "{bad} at {at}");
+            }
+        }
+    }
+
+    #[test]
+    fn force_band_equals_the_band_of_the_buffered_smoothing() {
+        // the band as it was found before: smoothed lines in a buffer, then the walk
+        fn buffered(raw: &[f64], smooth: bool, lim: f64) -> Option<(usize, usize)> {
+            let p = if smooth {
+                smooth_octave_lines(raw, 1.0 / 12.0)
+            } else {
+                raw.to_vec()
+            };
+            let (kmax, &pmax) = p.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1))?;
+            if pmax <= 0.0 {
+                return None;
+            }
+            let lim = lim * pmax;
+            let (mut lo, mut hi) = (kmax, kmax);
+            while lo > 0 && p[lo - 1] >= lim {
+                lo -= 1;
+            }
+            while hi + 1 < p.len() && p[hi + 1] >= lim {
+                hi += 1;
+            }
+            Some((lo + 1, hi + 1))
+        }
+        for n in [0, 1, 7, 100, 4097] {
+            for shape in 0..3 {
+                let raw: Vec<f64> = (0..n)
+                    .map(|k| match shape {
+                        0 => ((k * 7919 % 1013) as f64).sin().abs() * (-(k as f64) / 500.0).exp(),
+                        1 => 0.0,
+                        _ => 1.0,
+                    })
+                    .collect();
+                let mut acc = Accumulator::new(vec![Axis::X], vec![Axis::Y], n);
+                for (g, &r) in acc.gff.iter_mut().zip(&raw) {
+                    *g = Complex64::new(r, 0.0);
+                }
+                for smooth in [false, true] {
+                    for lim in [0.01, 1e-4] {
+                        assert_eq!(
+                            acc.force_band_within(smooth, lim),
+                            buffered(&raw, smooth, lim),
+                            "n {n} shape {shape} smooth {smooth} lim {lim}"
+                        );
+                    }
+                }
             }
         }
     }
