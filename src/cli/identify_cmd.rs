@@ -131,12 +131,44 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
         identify::campaign::drop_automatic_band_hint(&mut res.warnings);
     }
     out.warnings(&res.warnings);
+    say_summary(out, &a, &res, !frf_files.is_empty(), t_read, t0.elapsed());
+    let twin = &res.twin;
+    out.say(format!("twin -> {}", a.out.display()));
+    if let Some(r) = &a.report {
+        let html = crate::report::identify::identify_report(twin, &res.diagrams, a.frf_plot);
+        identify::atomic::write_atomic(r, html.as_bytes())?;
+        out.say(format!("report -> {}", r.display()));
+    }
+    out.json(&serde_json::json!({
+        "out": a.out,
+        "poses": twin.poses.iter().map(|p| serde_json::json!({
+            "pose": p.pose, "modes": p.order.modes, "automatic_order": p.order.automatic,
+            "fit": p.fit, "natural_freqs_hz": p.model.modes.iter().map(|m| m.freq_hz()).collect::<Vec<_>>(),
+            "damping": p.model.modes.iter().map(|m| m.zeta).collect::<Vec<_>>(),
+            "band_hz": p.band_hz, "plan": p.plan,
+        })).collect::<Vec<_>>(),
+        "interpolation": twin.interpolation,
+        "warnings": res.warnings,
+    }));
+    Ok(())
+}
+
+/// The terminal summary: records and poses, each pose's order, band and fits, how the
+/// automatic choices were made (pose 1), and the leave-one-pose-out accuracy.
+fn say_summary(
+    out: &Output,
+    a: &Args,
+    res: &identify::campaign::CampaignResult,
+    from_frfs: bool,
+    t_read: std::time::Duration,
+    total: std::time::Duration,
+) {
     let twin = &res.twin;
     out.say(format!(
         "{}, {}, channels {} (read {:.2} s, total {:.2} s)",
         identify::axis::count(
             a.files.len(),
-            if frf_files.is_empty() {
+            if !from_frfs {
                 "record"
             } else {
                 "measured FRF file"
@@ -149,7 +181,7 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
             .collect::<Vec<_>>()
             .join(","),
         t_read.as_secs_f64(),
-        t0.elapsed().as_secs_f64()
+        total.as_secs_f64()
     ));
     for p in &twin.poses {
         let fits: Vec<String> = p
@@ -222,22 +254,4 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
             twin.interpolation.method
         ));
     }
-    out.say(format!("twin -> {}", a.out.display()));
-    if let Some(r) = &a.report {
-        let html = crate::report::identify::identify_report(twin, &res.diagrams, a.frf_plot);
-        identify::atomic::write_atomic(r, html.as_bytes())?;
-        out.say(format!("report -> {}", r.display()));
-    }
-    out.json(&serde_json::json!({
-        "out": a.out,
-        "poses": twin.poses.iter().map(|p| serde_json::json!({
-            "pose": p.pose, "modes": p.order.modes, "automatic_order": p.order.automatic,
-            "fit": p.fit, "natural_freqs_hz": p.model.modes.iter().map(|m| m.freq_hz()).collect::<Vec<_>>(),
-            "damping": p.model.modes.iter().map(|m| m.zeta).collect::<Vec<_>>(),
-            "band_hz": p.band_hz, "plan": p.plan,
-        })).collect::<Vec<_>>(),
-        "interpolation": twin.interpolation,
-        "warnings": res.warnings,
-    }));
-    Ok(())
 }

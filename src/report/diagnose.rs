@@ -128,6 +128,8 @@ fn signal_window(m: &[f64], a: usize, end: usize, max: usize) -> (usize, usize) 
     }
 }
 
+/// The diagnosis report: the cause, the causes tried, the held-out response and the FRF
+/// evidence.
 pub fn report(
     twin: &Twin,
     ext: &Twin,
@@ -158,8 +160,20 @@ pub fn report(
         ));
     }
     body.push_str("</table>");
-    // measured vs simulated on the held-out part of the first record, where the signal is
-    let ts = &series[0];
+    held_out_section(&mut body, twin, ext, &series[0], opts)?;
+    frf_evidence_section(&mut body, twin, ext, series, opts)?;
+    Ok(page("mtwin diagnosis", &body))
+}
+
+/// Measured vs simulated response on the held-out part of the first record, where the
+/// signal is, with what each twin leaves unexplained.
+fn held_out_section(
+    body: &mut String,
+    twin: &Twin,
+    ext: &Twin,
+    ts: &identify::timeseries::TimeSeries,
+    opts: &DiagnoseOptions,
+) -> Result<()> {
     let sp = split(ts, opts.holdout_fraction);
     let y0 = simulate_as_measured(twin, ts)?;
     let y1 = simulate_as_measured(ext, ts)?;
@@ -269,7 +283,18 @@ pub fn report(
             ],
         }));
     }
-    // FRF evidence vs twin
+    Ok(())
+}
+
+/// The FRF evidence (the building part of the records) against the twin and the
+/// extended twin, per channel.
+fn frf_evidence_section(
+    body: &mut String,
+    twin: &Twin,
+    ext: &Twin,
+    series: &[identify::timeseries::TimeSeries],
+    opts: &DiagnoseOptions,
+) -> Result<()> {
     let parts: Vec<_> = series
         .iter()
         .map(|r| {
@@ -385,7 +410,7 @@ pub fn report(
             }));
         }
     }
-    Ok(page("mtwin diagnosis", &body))
+    Ok(())
 }
 
 #[cfg(test)]

@@ -661,6 +661,13 @@ pub fn identify_report(twin: &Twin, diagrams: &[StabilizationDiagram], view: Frf
         }
         let _ = writeln!(b, "</table>");
     }
+    modes_across_workspace(&mut b, twin);
+    every_pose(&mut b, twin, diagrams, view);
+    page("mtwin identify", &b)
+}
+
+/// The tracked modes across the workspace (frequency, damping per pose).
+fn modes_across_workspace(b: &mut String, twin: &Twin) {
     // modes across the workspace
     if twin.poses.len() > 1 {
         let idx: Vec<f64> = (1..=twin.poses.len()).map(|i| i as f64).collect();
@@ -711,6 +718,10 @@ pub fn identify_report(twin: &Twin, diagrams: &[StabilizationDiagram], view: Frf
             }) + &legend_html(&legend)
         );
     }
+}
+
+/// Every pose in its own section: modes, FRFs with coherence, stabilization diagram.
+fn every_pose(b: &mut String, twin: &Twin, diagrams: &[StabilizationDiagram], view: FrfView) {
     let _ = writeln!(
         b,
         "<h2>Every pose</h2><p>Open a pose for its modes, its FRFs with the coherence and its \
@@ -756,14 +767,13 @@ pub fn identify_report(twin: &Twin, diagrams: &[StabilizationDiagram], view: Frf
             },
             p.fit.iter().map(fit_text).collect::<Vec<_>>().join("; ")
         );
-        pose_frfs(&mut b, i, p, view);
+        pose_frfs(b, i, p, view);
         if let Some(d) = diagrams.get(i) {
             let _ = writeln!(b, "{}", diagram_plot(i, d, p));
         }
         let _ = writeln!(b, "</details>");
     }
     b.push_str("</div>");
-    page("mtwin identify", &b)
 }
 
 fn diagram_plot(i: usize, d: &StabilizationDiagram, p: &PoseModel) -> String {
