@@ -428,11 +428,16 @@ fn case_f(dir: &Path, machine: &ModalMachine) -> Res<Value> {
     let old = machine.model_at(c, &axes);
     let nfft = default_nfft(&recs[0], &old);
     let mut out = serde_json::Map::new();
+    // MTWIN_BENCH_F_METHOD=time|modal|paper: that method only (for profiling)
+    let only = std::env::var("MTWIN_BENCH_F_METHOD").ok();
     for (name, method) in [
         ("time", RefitMethod::Time),
         ("modal", RefitMethod::Modal),
         ("paper", RefitMethod::Paper),
     ] {
+        if only.as_deref().is_some_and(|o| o != name) {
+            continue;
+        }
         let opts = RefitOptions {
             method,
             ..RefitOptions::default()

@@ -9,6 +9,7 @@
 //! for excitation along one axis (impact tests) and an approximation otherwise.
 
 use crate::interpolate::{simulate_twin, TwinEvaluator};
+use crate::model::ModalModel;
 use crate::simulate::Hold;
 use crate::twin::Twin;
 use std::f64::consts::PI;
@@ -125,6 +126,81 @@ pub fn simulate_as_measured_lti(
     let y = crate::simulate::band_limited_lti(&model, &f, ts.dt);
     let y = delay_and_disturb(twin, y, ts.t0, ts.dt);
     Ok(as_measured(&y, ts))
+}
+
+/// [`simulate_as_measured_lti`] of `after` for a record whose simulation by `before` is
+/// `sim_before`, where the two twins differ at the record's pose only in some modes (a
+/// refit): the simulation of `before` plus the response of the modes (and feedthroughs)
+/// that changed, new minus old — linear time invariance, the same response up to
+/// rounding for the cost of the changed modes. Records or twins where the shortcut does
+/// not hold (moving axes, cubic terms, other extensions or another model layout) are
+/// simulated afresh.
+pub fn resimulate_as_measured_lti(
+    before: &Twin,
+    after: &Twin,
+    ts: &crate::timeseries::TimeSeries,
+    sim_before: &[Vec<f64>; 3],
+) -> crate::Result<[Vec<f64>; 3]> {
+    let pose = ts.position_at(0);
+    let still = (0..3).all(|a| {
+        ts.position[a]
+            .as_ref()
+            .is_none_or(|v| v.iter().all(|&p| p == pose[a]))
+    });
+    let n = ts.len();
+    let same_shape = before.extensions == after.extensions
+        && before.extensions.cubic.is_empty()
+        && before.channels == after.channels
+        && sim_before.iter().all(|v| v.len() == n);
+    if !still || !same_shape || n < 2 {
+        return simulate_as_measured_lti(after, ts);
+    }
+    let old = TwinEvaluator::new(before)?.model_at(pose).clone();
+    let new = TwinEvaluator::new(after)?.model_at(pose).clone();
+    if old.modes.len() != new.modes.len() || old.channels.len() != new.channels.len() {
+        return simulate_as_measured_lti(after, ts);
+    }
+    let changed: Vec<usize> = (0..old.modes.len())
+        .filter(|&k| {
+            old.modes[k] != new.modes[k]
+                || old
+                    .channels
+                    .iter()
+                    .zip(&new.channels)
+                    .any(|(a, b)| a.num[k] != b.num[k])
+        })
+        .collect();
+    let part = |m: &ModalModel| ModalModel {
+        modes: changed.iter().map(|&k| m.modes[k]).collect(),
+        channels: m
+            .channels
+            .iter()
+            .map(|c| crate::model::ChannelModel {
+                num: changed.iter().map(|&k| c.num[k]).collect(),
+                ..c.clone()
+            })
+            .collect(),
+    };
+    check_force_columns(&after.channels, ts)?;
+    let f = crate::simulate::force_rows(ts);
+    let y_new = crate::simulate::band_limited_lti(&part(&new), &f, ts.dt);
+    let y_old = crate::simulate::band_limited_lti(&part(&old), &f, ts.dt);
+    let mut d: Vec<[f64; 3]> = y_new
+        .iter()
+        .zip(&y_old)
+        .map(|(a, b)| [a[0] - b[0], a[1] - b[1], a[2] - b[2]])
+        .collect();
+    if let Some(tau) = after.extensions.delay_s {
+        d = delay(&d, tau / ts.dt);
+    }
+    let d = as_measured(&d, ts);
+    Ok(std::array::from_fn(|a| {
+        sim_before[a]
+            .iter()
+            .zip(&d[a])
+            .map(|(s, x)| s + x)
+            .collect()
+    }))
 }
 
 /// Per axis x, y, z the displacement `y` or, for an accelerometer record, its second

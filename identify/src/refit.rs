@@ -212,18 +212,46 @@ pub type AxisTrace = (Axis, Vec<f64>, Vec<f64>);
 /// Records where the axes stand still are simulated at their own rate
 /// ([`crate::extended::simulate_as_measured_lti`], the same response up to rounding).
 pub fn time_fit(twin: &Twin, records: &[TimeSeries]) -> Result<f64> {
-    time_fit_traces(twin, records).map(|(fit, _)| fit)
+    time_fit_traces(twin, records).map(|(fit, _, _)| fit)
 }
 
 /// [`time_fit`] and the first record's traces: per response axis the twin models, the
-/// axis, the measured and the simulated samples.
-fn time_fit_traces(twin: &Twin, records: &[TimeSeries]) -> Result<(f64, Vec<AxisTrace>)> {
+/// axis, the measured and the simulated samples; and every record's simulation.
+fn time_fit_traces(twin: &Twin, records: &[TimeSeries]) -> Result<TimeFit> {
+    let sims = records
+        .iter()
+        .map(|ts| crate::extended::simulate_as_measured_lti(twin, ts))
+        .collect::<Result<Vec<_>>>()?;
+    time_fit_of(twin, records, sims)
+}
+
+/// [`time_fit_traces`] of the twin `after`, a refit of `before` whose simulations of
+/// `records` are `sims_before`: only the modes that changed are simulated again
+/// ([`crate::extended::resimulate_as_measured_lti`]).
+fn time_fit_traces_after(
+    before: &Twin,
+    after: &Twin,
+    records: &[TimeSeries],
+    sims_before: &[[Vec<f64>; 3]],
+) -> Result<TimeFit> {
+    let sims = records
+        .iter()
+        .zip(sims_before)
+        .map(|(ts, sb)| crate::extended::resimulate_as_measured_lti(before, after, ts, sb))
+        .collect::<Result<Vec<_>>>()?;
+    time_fit_of(after, records, sims)
+}
+
+/// A time fit: the fit \[%\], the first record's traces, every record's simulation.
+type TimeFit = (f64, Vec<AxisTrace>, Vec<[Vec<f64>; 3]>);
+
+/// The fit of the simulations `sims` of `records` by `twin` (see [`time_fit_traces`]).
+fn time_fit_of(twin: &Twin, records: &[TimeSeries], sims: Vec<[Vec<f64>; 3]>) -> Result<TimeFit> {
     let mut meas = Vec::new();
     let mut sim = Vec::new();
     let mut first = Vec::new();
     let outs: Vec<Axis> = twin.channels.iter().map(|c| c.output).collect();
-    for (i, ts) in records.iter().enumerate() {
-        let y = crate::extended::simulate_as_measured_lti(twin, ts)?;
+    for (i, (ts, y)) in records.iter().zip(&sims).enumerate() {
         if i == 0 {
             first = Axis::ALL
                 .into_iter()
@@ -249,7 +277,7 @@ fn time_fit_traces(twin: &Twin, records: &[TimeSeries]) -> Result<(f64, Vec<Axis
             "the data has no response column the twin models".into(),
         ));
     }
-    Ok((fit_percent_real(&meas, &sim), first))
+    Ok((fit_percent_real(&meas, &sim), first, sims))
 }
 
 /// Welch segment length: lines no wider than an eighth of the narrowest half-power bandwidth of
@@ -482,20 +510,23 @@ impl HeldOutFit {
     }
 }
 
-/// The held-out misfit of updating the modes `free` (see [`HeldOutFit`]); `None` when a
+/// The held-out misfit of updating the modes `free` (see [`HeldOutFit`]), each fold's
+/// update started from `starts` (the fold's fit of a subset of `free`); `None` when a
 /// fit fails.
 fn held_out_misfit(
     old: &ModalModel,
     free: &[usize],
     folds: &[Vec<Points>; 2],
     num_rel: &[f64],
+    starts: Option<&[ModalModel; 2]>,
 ) -> Option<HeldOutFit> {
-    let opts = identity_options(old, free, num_rel);
+    let mut opts = identity_options(old, free, num_rel);
     let mut ss = 0.0;
     let mut at_bound = Vec::new();
     let mut models = [old.clone(), old.clone()];
     for (fit, score) in [(0, 1), (1, 0)] {
         if !free.is_empty() {
+            opts.start = starts.map(|s| s[fit].clone());
             let r = update_modes_with(old, free, &folds[fit], &opts).ok()?;
             at_bound.extend(r.at_bound);
             models[fit] = r.model;
@@ -553,7 +584,7 @@ fn validated_selection(
     if folds.iter().any(|f| f.iter().all(|p| p.h.is_empty())) {
         return None;
     }
-    let mut current = held_out_misfit(old, &[], folds, num_rel)?;
+    let mut current = held_out_misfit(old, &[], folds, num_rel, None)?;
     let mut sel = Selection {
         free: Vec::new(),
         chi_before: current.chi,
@@ -572,7 +603,8 @@ fn validated_selection(
             let mut f = sel.free.clone();
             f.push(k);
             f.sort_unstable();
-            let Some(h) = held_out_misfit(old, &f, folds, num_rel) else {
+            // started from the current set's fits: only the new mode starts afar
+            let Some(h) = held_out_misfit(old, &f, folds, num_rel, Some(&current.models)) else {
                 continue;
             };
             if h.at_bound.contains(&k) {
@@ -897,7 +929,7 @@ pub fn refit(
     let lines = selected_lines(&sp, opts);
     let pts = operating_points(&sp, &lines, &old, None);
     let drift_chi = chi(&old, &pts, 0.0);
-    let (drift_fit, traces_before) = time_fit_traces(twin, records)?;
+    let (drift_fit, traces_before, sims_before) = time_fit_traces(twin, records)?;
     let drifted = drift_fit < 100.0 - opts.drift_threshold_pct || drift_chi > opts.drift_chi;
     let mut report = RefitReport {
         method: opts.method,
@@ -982,7 +1014,11 @@ pub fn refit(
                 let noise2 = operating_points(&sp, &lines_c, &old, Some(&first.model));
                 let eps2 = discrepancy(&first.model, &noise2);
                 let pts2 = with_discrepancy(&first.model, &noise2, &eps2);
-                let res = update_modes_with(&old, &free, &pts2, &uo)?;
+                let uo2 = UpdateOptions {
+                    start: Some(first.model.clone()),
+                    ..uo
+                };
+                let res = update_modes_with(&old, &free, &pts2, &uo2)?;
                 let stuck: Vec<usize> = first
                     .at_bound
                     .iter()
@@ -1150,7 +1186,7 @@ pub fn refit(
         })
         .collect();
     report.updated = true;
-    let (fit_after, traces_after) = time_fit_traces(&out, records)?;
+    let (fit_after, traces_after, _) = time_fit_traces_after(twin, &out, records, &sims_before)?;
     report.fit_after_pct = fit_after;
     if let Some((_, after)) = &mut report.responses {
         *after = traces_after;

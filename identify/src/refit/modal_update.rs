@@ -191,6 +191,11 @@ pub struct UpdateOptions {
     pub max_iter: usize,
     /// Also compute [`UpdateResult::posterior_sd`] (one more Jacobian).
     pub posterior: bool,
+    /// Where the iterations start (same modes and channels as the model updated; its
+    /// free modes' values are taken, clamped to the bounds): e.g. the fit of a subset of
+    /// the free modes. The prior stays centred on the model updated and
+    /// [`UpdateResult::chi_before`] is its misfit. `None`: the model updated.
+    pub start: Option<ModalModel>,
 }
 
 impl Default for UpdateOptions {
@@ -201,6 +206,7 @@ impl Default for UpdateOptions {
             shape_prior: None,
             max_iter: 60,
             posterior: false,
+            start: None,
         }
     }
 }
@@ -219,6 +225,7 @@ impl UpdateOptions {
             shape_prior: Some(vec![prior.num_rel; model.channels.len()]),
             max_iter: 60,
             posterior: true,
+            start: None,
         }
     }
 }
@@ -549,48 +556,8 @@ pub fn update_modes_with(
         }
         (r, m)
     };
-    let jacobian = |theta: &[f64], m: &ModalModel| -> DMatrix<f64> {
-        let mut jm = DMatrix::zeros(n_res, lay.n());
-        let mut i = 0;
-        for (p, ci) in points.iter().zip(&chan_idx) {
-            let Some(ci) = *ci else {
-                i += 2 * p.h.len();
-                continue;
-            };
-            for (f, s) in p.freqs_hz.iter().zip(&p.sigma) {
-                let sv = Complex64::new(0.0, 2.0 * PI * f);
-                for (j, &k) in lay.free.iter().enumerate() {
-                    let o = j * per;
-                    let mode = m.modes[k];
-                    let den = mode.den(sv);
-                    let num = m.channels[ci].num[k];
-                    let nv = sv * num.b1 + num.b0;
-                    // d/d ln ω and d/d ln ζ of (b1 s + b0)/(s² + 2ζω s + ω²)
-                    let [dden_dlnw, dden_dlnz] = mode.den_log_derivatives(sv);
-                    let d_lnw = -nv * dden_dlnw / (den * den);
-                    let d_lnz = -nv * dden_dlnz / (den * den);
-                    let d_b0 = Complex64::new(scale[j], 0.0) / den;
-                    let d_b1 = sv * (scale[j] / model.modes[k].wn) / den;
-                    let mut put = |col: usize, v: Complex64| {
-                        jm[(i, col)] = v.re / s;
-                        jm[(i + 1, col)] = v.im / s;
-                    };
-                    put(o, d_lnw);
-                    put(o + 1, d_lnz);
-                    put(o + 2 + 2 * ci, d_b0);
-                    put(o + 3 + 2 * ci, d_b1);
-                }
-                i += 2;
-            }
-        }
-        for j in 0..lay.n() {
-            jm[(n_data + j, j)] = 1.0 / prior_sd[j];
-        }
-        let _ = theta;
-        jm
-    };
     // the Jacobian's nonzero columns of each data row (the free modes' ln ω, ln ζ and
-    // the row's channel's numerators) and of each prior row (its own)
+    // the row's channel's numerators)
     let chan_cols: Vec<Vec<usize>> = (0..lay.n_ch)
         .map(|ci| {
             (0..lay.free.len())
@@ -601,26 +568,95 @@ pub fn update_modes_with(
                 .collect()
         })
         .collect();
-    let prior_cols: Vec<usize> = (0..lay.n()).collect();
-    let row_cols: Vec<&[usize]> = {
-        let mut rows: Vec<&[usize]> = Vec::with_capacity(n_res);
+    // (JᵀJ, Jᵀr) at the model `m` with residual `r`, row by row without the Jacobian
+    // itself: a data row has four nonzeros per free mode (in `chan_cols` order), a prior
+    // row one
+    let normal = |m: &ModalModel, r: &DVector<f64>| -> (DMatrix<f64>, DVector<f64>) {
+        let n = lay.n();
+        let (mut jtj, mut g) = (DMatrix::zeros(n, n), DVector::zeros(n));
+        let mut row = |i: usize, cs: &[usize], vals: &[f64]| {
+            for (x, &a) in cs.iter().enumerate() {
+                let va = vals[x];
+                g[a] += va * r[i];
+                for (y, &b) in cs.iter().enumerate().skip(x) {
+                    jtj[(a, b)] += va * vals[y];
+                }
+            }
+        };
+        let mut i = 0;
+        let mut re = vec![0.0; 4 * lay.free.len()];
+        let mut im = re.clone();
         for (p, ci) in points.iter().zip(&chan_idx) {
-            let cols: &[usize] = ci.map_or(&[], |ci| &chan_cols[ci]);
-            rows.extend(std::iter::repeat_n(cols, 2 * p.h.len()));
+            let Some(ci) = *ci else {
+                i += 2 * p.h.len();
+                continue;
+            };
+            let cs = &chan_cols[ci];
+            for (f, s) in p.freqs_hz.iter().zip(&p.sigma) {
+                let sv = Complex64::new(0.0, 2.0 * PI * f);
+                for (j, &k) in lay.free.iter().enumerate() {
+                    let mode = m.modes[k];
+                    let den = mode.den(sv);
+                    let num = m.channels[ci].num[k];
+                    let nv = sv * num.b1 + num.b0;
+                    // d/d ln ω and d/d ln ζ of (b1 s + b0)/(s² + 2ζω s + ω²)
+                    let [dden_dlnw, dden_dlnz] = mode.den_log_derivatives(sv);
+                    let vs = [
+                        -nv * dden_dlnw / (den * den),
+                        -nv * dden_dlnz / (den * den),
+                        Complex64::new(scale[j], 0.0) / den,
+                        sv * (scale[j] / model.modes[k].wn) / den,
+                    ];
+                    for (q, v) in vs.iter().enumerate() {
+                        re[4 * j + q] = v.re / s;
+                        im[4 * j + q] = v.im / s;
+                    }
+                }
+                row(i, cs, &re);
+                row(i + 1, cs, &im);
+                i += 2;
+            }
         }
-        rows.extend((0..lay.n()).map(|j| &prior_cols[j..=j]));
-        rows
+        for j in 0..n {
+            row(n_data + j, &[j], &[1.0 / prior_sd[j]]);
+        }
+        for a in 0..n {
+            for b in 0..a {
+                jtj[(a, b)] = jtj[(b, a)];
+            }
+        }
+        (jtj, g)
     };
     let mut theta = theta0.clone();
     let (mut r, mut m) = residuals(&theta);
     let chi_before = (r.rows(0, n_data).norm_squared() / n_data as f64).sqrt();
+    if let Some(st) = opts.start.as_ref().filter(|st| {
+        st.modes.len() == model.modes.len() && st.channels.len() == model.channels.len()
+    }) {
+        for (j, &k) in lay.free.iter().enumerate() {
+            let o = j * per;
+            theta[o] = st.modes[k].wn.ln();
+            theta[o + 1] = st.modes[k].zeta.max(1e-6).ln();
+            for c in 0..lay.n_ch {
+                theta[o + 2 + 2 * c] = st.channels[c].num[k].b0 / scale[j];
+                theta[o + 3 + 2 * c] = st.channels[c].num[k].b1 * model.modes[k].wn / scale[j];
+            }
+        }
+        clamp(&mut theta);
+        let (rs, ms) = residuals(&theta);
+        // a start worse than the model updated (or invalid) is not taken
+        if rs.norm_squared() < r.norm_squared() && ms.is_valid() {
+            (r, m) = (rs, ms);
+        } else {
+            theta.clone_from(&theta0);
+        }
+    }
     let mut cost = r.norm_squared();
     let mut lambda = 1e-3;
     let mut it = 0;
     while it < max_iter {
         it += 1;
-        let jm = jacobian(&theta, &m);
-        let (jtj, g) = normal_equations(&jm, &r, &row_cols);
+        let (jtj, g) = normal(&m, &r);
         let mut improved = false;
         for _ in 0..12 {
             let mut a = jtj.clone();
@@ -671,8 +707,7 @@ pub fn update_modes_with(
     // posterior standard deviations of ln ω, ln ζ: (JᵀJ)⁻¹ at the solution (prior rows
     // included), scaled by the misfit per degree of freedom when that exceeds 1
     let posterior_sd = if opts.posterior {
-        let jm = jacobian(&theta, &m);
-        let (jtj, _) = normal_equations(&jm, &r, &row_cols);
+        let (jtj, _) = normal(&m, &r);
         let s2 =
             (r.rows(0, n_data).norm_squared() / (n_data as f64 - lay.n() as f64).max(1.0)).max(1.0);
         let sd = |i: usize, inv: &DMatrix<f64>| (inv[(i, i)].max(0.0) * s2).sqrt();
@@ -695,33 +730,6 @@ pub fn update_modes_with(
         at_bound,
         posterior_sd,
     })
-}
-
-/// `(JᵀJ, Jᵀr)` of a Jacobian whose row `i` is zero outside the columns `cols[i]`: a few
-/// products per row instead of a dense product (a row of the modal update's Jacobian has
-/// four nonzeros per free mode out of `2 + 2 × channels`).
-fn normal_equations(
-    jm: &DMatrix<f64>,
-    r: &DVector<f64>,
-    cols: &[&[usize]],
-) -> (DMatrix<f64>, DVector<f64>) {
-    let n = jm.ncols();
-    let (mut jtj, mut g) = (DMatrix::zeros(n, n), DVector::zeros(n));
-    for (i, cs) in cols.iter().enumerate() {
-        for (x, &a) in cs.iter().enumerate() {
-            let va = jm[(i, a)];
-            g[a] += va * r[i];
-            for &b in &cs[x..] {
-                jtj[(a, b)] += va * jm[(i, b)];
-            }
-        }
-    }
-    for a in 0..n {
-        for b in 0..a {
-            jtj[(a, b)] = jtj[(b, a)];
-        }
-    }
-    (jtj, g)
 }
 
 /// `target` changed like `old → new` with weight `w`: relative when old and new share a

@@ -7,7 +7,8 @@
 //! response to the measured force against the measured response (output error), with
 //!
 //! - the natural frequency and damping of the freed modes as the nonlinear unknowns
-//!   (Levenberg–Marquardt, finite-difference Jacobian),
+//!   (Levenberg–Marquardt; the Jacobian of variable projection in Kaufman's form, from
+//!   the derivatives of the transfers in the frequency domain),
 //! - their numerators in every channel the data excites, and an offset per output and
 //!   record, solved by linear least squares at every step (variable projection),
 //! - every other mode and the feedthrough held at the starting model,
@@ -100,6 +101,10 @@ thread_local! {
 
 /// The held modes' transfer from one force (index into the record's forces) to an output.
 type HeldPath = (usize, Vec<Complex64>);
+
+/// A free mode's transfer at every line of a record and its derivatives by ln ω and
+/// ln ζ: `(G, ∂G/∂ln ω, ∂G/∂ln ζ)`.
+type ModeTransfer = (Vec<Complex64>, Vec<Complex64>, Vec<Complex64>);
 
 /// One record prepared for the fit.
 struct Prepared {
@@ -373,7 +378,6 @@ struct Problem<'a> {
 }
 
 /// Per (input, free mode): the `[q, q̇]` columns of one record (fitted samples).
-/// (Shared: an evaluation that moves one force's noise floor keeps the other forces'.)
 type Cols = Vec<(Axis, usize, Arc<[Vec<f64>; 2]>)>;
 
 /// One record's part of an evaluation: the conditioned forces, per output the target
@@ -439,35 +443,6 @@ impl Problem<'_> {
         let u = p.wiener(&self.noise_of(theta, ri));
         let targets: Vec<Vec<f64>> = (0..p.targets.len()).map(|oi| p.target(oi, &u)).collect();
         let cols = self.rec_columns(theta, ri, &u);
-        RecPart {
-            normal: self.normal_parts(ri, &targets, &cols),
-            cols,
-            targets,
-            u,
-        }
-    }
-
-    /// [`Problem::rec_part`] of record `ri` at `theta` where only force `f`'s noise floor
-    /// differs from the evaluation `base` of that record: the same numbers, without
-    /// recomputing the other forces' columns.
-    fn rec_part_moved(&self, theta: &[f64], ri: usize, f: usize, base: &RecPart) -> RecPart {
-        let p = &self.recs[ri];
-        let noise = self.noise_of(theta, ri);
-        let mut u = base.u.clone();
-        u[f] = Arc::new(
-            p.wiener_one(f, noise[f])
-                .unwrap_or_else(|| p.forces[f].1.clone()),
-        );
-        let targets: Vec<Vec<f64>> = (0..p.targets.len()).map(|oi| p.target(oi, &u)).collect();
-        let modes = self.modes_at(theta);
-        let a = p.forces[f].0;
-        let mut cols = base.cols.clone();
-        for (ca, j, qv) in cols.iter_mut() {
-            if *ca == a {
-                let (wn, z) = modes[*j];
-                *qv = Arc::new(p.mode_columns(wn, z, &u[f]));
-            }
-        }
         RecPart {
             normal: self.normal_parts(ri, &targets, &cols),
             cols,
@@ -554,46 +529,6 @@ impl Problem<'_> {
         (e, per_rec)
     }
 
-    /// The evaluation at `t` = `theta` with parameter `i` moved, from the parts `base` of
-    /// the evaluation at `theta`: a mode parameter changes every record's columns but
-    /// neither its conditioned forces nor its targets, a noise floor only its own record.
-    /// The same numbers as [`Problem::eval_with_parts`].
-    fn eval_moved(&self, t: &[f64], i: usize, base: &[RecPart]) -> Eval {
-        if i < 2 * self.free.len() {
-            let moved: Vec<(Cols, Vec<Option<Normal>>)> = (0..self.recs.len())
-                .into_par_iter()
-                .map(|ri| {
-                    let cols = self.rec_columns(t, ri, &base[ri].u);
-                    let normal = self.normal_parts(ri, &base[ri].targets, &cols);
-                    (cols, normal)
-                })
-                .collect();
-            let refs: Vec<PartRef> = base
-                .iter()
-                .zip(&moved)
-                .map(|(b, (cols, normal))| PartRef {
-                    targets: &b.targets,
-                    cols,
-                    normal,
-                })
-                .collect();
-            return self.combine(t, &refs);
-        }
-        let ri = (0..self.recs.len())
-            .rev()
-            .find(|&ri| self.noise_at[ri] <= i)
-            .unwrap_or(0);
-        // the floor of force i - noise_at[ri] moves: that force's columns and every
-        // target change, the other forces' columns are those of `base`
-        let moved = self.rec_part_moved(t, ri, i - self.noise_at[ri], &base[ri]);
-        let refs: Vec<PartRef> = base
-            .iter()
-            .enumerate()
-            .map(|(k, b)| if k == ri { moved.as_ref() } else { b.as_ref() })
-            .collect();
-        self.combine(t, &refs)
-    }
-
     /// Numerators by linear least squares per output over the records' parts
     /// (targets, columns), the weighted residual and the prior residuals.
     fn combine(&self, theta: &[f64], per_rec: &[PartRef]) -> Eval {
@@ -675,6 +610,241 @@ impl Problem<'_> {
         Eval { r, n_data, beta }
     }
 
+    /// `JᵀJ` and `Jᵀr` of the residual at `theta` (evaluation `cur`, the records' parts
+    /// `parts`) over its first `np` parameters, with the Jacobian of variable projection
+    /// in Kaufman's form: the numerators' own dependence on θ through their normal
+    /// equations, without the second-order term of the residual (exact at a zero
+    /// residual, the usual Gauss–Newton model elsewhere). The derivative of the model's
+    /// response to a parameter is one inverse transform per record and output: a free
+    /// mode's ln ω or ln ζ moves its transfer, a force's noise floor moves that force's
+    /// conditioned spectrum under the whole model (held and free modes). Every product
+    /// of the time signals comes from one pass over the record in cache-sized blocks
+    /// ([`gram`]).
+    fn gauss_newton(
+        &self,
+        theta: &[f64],
+        parts: &[RecPart],
+        cur: &Eval,
+        np: usize,
+    ) -> (DMatrix<f64>, DVector<f64>) {
+        let n_modes = 2 * self.free.len();
+        let modes = self.modes_at(theta);
+        // per record and free mode, at every line: G = a/D (a = −ω² for an acceleration,
+        // else 1; D = s² + 2ζω s + ω²) and its derivatives by ln ω and ln ζ
+        let transfers: Vec<Vec<ModeTransfer>> = self
+            .recs
+            .iter()
+            .map(|p| {
+                modes
+                    .iter()
+                    .map(|&(wn, z)| {
+                        let mut g = Vec::with_capacity(p.omega.len());
+                        let mut dw = Vec::with_capacity(p.omega.len());
+                        let mut dz = Vec::with_capacity(p.omega.len());
+                        for &om in &p.omega {
+                            let s = Complex64::new(0.0, om);
+                            let acc = if p.accel { -om * om } else { 1.0 };
+                            let inv = 1.0 / (s * s + 2.0 * z * wn * s + wn * wn);
+                            let gk = inv * acc;
+                            g.push(gk);
+                            dw.push(-gk * inv * (wn * (2.0 * z * s + 2.0 * wn)));
+                            dz.push(-gk * inv * (z * 2.0 * wn * s));
+                        }
+                        (g, dw, dz)
+                    })
+                    .collect()
+            })
+            .collect();
+        let mut jtj = DMatrix::<f64>::zeros(np, np);
+        let mut g = DVector::<f64>::zeros(np);
+        for (oi, (o, chans, w)) in self.outputs.iter().enumerate() {
+            let spec = self.spec(oi);
+            let nc = spec.len();
+            let beta = &cur.beta[oi];
+            // per output, summed over the records: Aᵀd (nc × np), dᵀd, dᵀe
+            let mut atd = DMatrix::<f64>::zeros(nc, np);
+            let mut dd = DMatrix::<f64>::zeros(np, np);
+            let mut de = DVector::<f64>::zeros(np);
+            let mut ata = DMatrix::<f64>::zeros(nc, nc);
+            for (ri, part) in parts.iter().enumerate() {
+                let p = &self.recs[ri];
+                let Some(y) = self.target_of(ri, &part.targets, oi) else {
+                    continue;
+                };
+                if let Some((a, _)) = &part.normal[oi] {
+                    ata += a;
+                }
+                let Some(k) = p.held.iter().position(|(a, _)| a == o) else {
+                    continue;
+                };
+                // per force and free mode: the numerator (β0 + β1 s) summed over the
+                // channels of this output the force drives (None: it drives none)
+                let nums: Vec<Vec<Option<(f64, f64)>>> = (0..p.forces.len())
+                    .map(|f| {
+                        let input = p.forces[f].0;
+                        (0..self.free.len())
+                            .map(|j| {
+                                chans
+                                    .iter()
+                                    .enumerate()
+                                    .filter(|(_, &c)| self.start.channels[c].channel.input == input)
+                                    .map(|(cp, _)| {
+                                        let a = (cp * self.free.len() + j) * 2;
+                                        (beta[a], beta[a + 1])
+                                    })
+                                    .reduce(|x, y| (x.0 + y.0, x.1 + y.1))
+                            })
+                            .collect()
+                    })
+                    .collect();
+                let tf = &transfers[ri];
+                let mut ds: Vec<(usize, Vec<f64>)> = Vec::new();
+                // free modes: ∂/∂ln ω and ∂/∂ln ζ of Σ_f u_f (β0 + β1 s) G
+                for (j, (_, dw, dz)) in tf.iter().enumerate() {
+                    let drive: Vec<(usize, (f64, f64))> = (0..p.forces.len())
+                        .filter_map(|f| nums[f][j].map(|b| (f, b)))
+                        .collect();
+                    if drive.is_empty() {
+                        continue;
+                    }
+                    let (sw, sz): (Vec<Complex64>, Vec<Complex64>) = p
+                        .omega
+                        .iter()
+                        .enumerate()
+                        .map(|(kk, &om)| {
+                            let mut v = Complex64::new(0.0, 0.0);
+                            for &(f, (b0, b1)) in &drive {
+                                v += part.u[f][kk] * Complex64::new(b0, b1 * om);
+                            }
+                            (v * dw[kk], v * dz[kk])
+                        })
+                        .unzip();
+                    ds.push((2 * j, demean(p.to_time(sw))));
+                    ds.push((2 * j + 1, demean(p.to_time(sz))));
+                }
+                // noise floors of this record's forces: ∂u_f/∂a = −U_f med/P where the
+                // Wiener factor is positive, under the whole model M_f (held + free)
+                for f in 0..p.forces.len() {
+                    let i = self.noise_at[ri] + f;
+                    if !self.with_noise || i >= np {
+                        continue;
+                    }
+                    let held: Vec<&Vec<Complex64>> = p.held[k]
+                        .1
+                        .iter()
+                        .filter(|(jf, _)| *jf == f)
+                        .map(|(_, h)| h)
+                        .collect();
+                    let free_f: Vec<(usize, (f64, f64))> = (0..self.free.len())
+                        .filter_map(|j| nums[f][j].map(|b| (j, b)))
+                        .collect();
+                    if held.is_empty() && free_f.is_empty() {
+                        continue;
+                    }
+                    let ((_, u0), (pw, med)) = (&p.forces[f], &p.power[f]);
+                    let nu = theta[i] * med;
+                    let sp: Vec<Complex64> = p
+                        .omega
+                        .iter()
+                        .enumerate()
+                        .map(|(kk, &om)| {
+                            let pk = pw[kk].max(1e-300);
+                            if 1.0 - nu / pk <= 0.0 {
+                                return Complex64::new(0.0, 0.0);
+                            }
+                            let mut m: Complex64 = held.iter().map(|h| h[kk]).sum();
+                            for &(j, (b0, b1)) in &free_f {
+                                m += Complex64::new(b0, b1 * om) * tf[j].0[kk];
+                            }
+                            -u0[kk] * (med / pk) * m
+                        })
+                        .collect();
+                    ds.push((i, demean(p.to_time(sp))));
+                }
+                // one pass: the Gram matrix of [columns | derivatives | target]
+                let cols: Vec<(usize, &[f64])> = spec
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(a, sp)| self.column(&part.cols, *sp).map(|c| (a, c)))
+                    .collect();
+                let mut vecs: Vec<&[f64]> = cols.iter().map(|(_, c)| *c).collect();
+                vecs.extend(ds.iter().map(|(_, d)| d.as_slice()));
+                vecs.push(y);
+                let gm = gram(&vecs);
+                let (na, nd) = (cols.len(), ds.len());
+                for (x, (i, _)) in ds.iter().enumerate() {
+                    let gx = na + x;
+                    for (q, (a, _)) in cols.iter().enumerate() {
+                        atd[(*a, *i)] += gm[(q, gx)];
+                    }
+                    for (x2, (i2, _)) in ds.iter().enumerate() {
+                        dd[(*i, *i2)] += gm[(gx, na + x2)];
+                    }
+                    // dᵀe = dᵀy − dᵀAβ
+                    let mut v = gm[(gx, na + nd)];
+                    for (q, (a, _)) in cols.iter().enumerate() {
+                        v -= gm[(q, gx)] * beta[*a];
+                    }
+                    de[*i] += v;
+                }
+            }
+            // N = AᵀA + the numerators' ridge (as in [`Problem::combine`]); X = N⁺ Aᵀd
+            if let Some((_, iv)) = self.num_prior.as_ref().map(|np_| &np_[oi]) {
+                let k2 = (self.prior_scale / w).powi(2);
+                for a in 0..nc {
+                    ata[(a, a)] += k2 * iv[a];
+                }
+            }
+            let dsc: Vec<f64> = (0..nc)
+                .map(|a| {
+                    let v = ata[(a, a)];
+                    if v > 0.0 {
+                        1.0 / v.sqrt()
+                    } else {
+                        0.0
+                    }
+                })
+                .collect();
+            let scaled = DMatrix::from_fn(nc, nc, |a, b| ata[(a, b)] * dsc[a] * dsc[b]);
+            let rhs = DMatrix::from_fn(nc, np, |a, i| atd[(a, i)] * dsc[a]);
+            let x = scaled
+                .svd(true, true)
+                .solve(&rhs, 1e-12)
+                .unwrap_or_else(|_| DMatrix::zeros(nc, np));
+            // JᵢᵀJₖ = w² (dᵢᵀdₖ − (Aᵀdᵢ)ᵀ N⁺ Aᵀdₖ), Jᵢᵀr = −w² dᵢᵀe
+            let w2 = w * w;
+            for i in 0..np {
+                for k2 in 0..np {
+                    let mut v = dd[(i, k2)];
+                    for a in 0..nc {
+                        v -= atd[(a, i)] * x[(a, k2)] * dsc[a];
+                    }
+                    jtj[(i, k2)] += w2 * v;
+                }
+                g[i] -= w2 * de[i];
+            }
+        }
+        // the priors' rows: diagonal
+        let ps = self.prior_scale;
+        if let Some(mp) = &self.mode_prior {
+            for (i, (c, sd)) in mp.iter().enumerate().take(n_modes.min(np)) {
+                let d = ps / sd;
+                jtj[(i, i)] += d * d;
+                g[i] += d * (ps * (theta[i] - c) / sd);
+            }
+        }
+        if self.with_noise {
+            let d = ps / NOISE_PRIOR;
+            for i in n_modes..np {
+                jtj[(i, i)] += d * d;
+                g[i] += d * (ps * theta[i] / NOISE_PRIOR);
+            }
+        }
+        // symmetric by construction up to rounding
+        let sym = (&jtj + jtj.transpose()) * 0.5;
+        (sym, g)
+    }
+
     fn model_at(&self, theta: &[f64], ev: &Eval) -> ModalModel {
         let mut m = self.start.clone();
         for (j, (wn, z)) in self.modes_at(theta).into_iter().enumerate() {
@@ -708,6 +878,33 @@ fn sumsq(r: &[f64]) -> f64 {
     dot(r, r)
 }
 
+/// Gram matrix `G[a][b] = vᵃ·vᵇ` of equally long vectors (the shortest length counts), in
+/// one pass over blocks that stay in the cache: the vectors are read once, not once per
+/// pair.
+fn gram(v: &[&[f64]]) -> DMatrix<f64> {
+    const BLOCK: usize = 1024;
+    let k = v.len();
+    let n = v.iter().map(|x| x.len()).min().unwrap_or(0);
+    let mut g = DMatrix::<f64>::zeros(k, k);
+    let mut start = 0;
+    while start < n {
+        let end = (start + BLOCK).min(n);
+        for a in 0..k {
+            let va = &v[a][start..end];
+            for b in a..k {
+                g[(a, b)] += dot(va, &v[b][start..end]);
+            }
+        }
+        start = end;
+    }
+    for a in 0..k {
+        for b in 0..a {
+            g[(a, b)] = g[(b, a)];
+        }
+    }
+    g
+}
+
 /// A prior of the output-error stage: the modal update's, centred on the previous model.
 #[derive(Debug, Clone)]
 pub struct OePrior {
@@ -721,8 +918,9 @@ pub struct OePrior {
 }
 
 /// Relative cost reduction a Levenberg–Marquardt step must promise (linearised, least
-/// damped) for [`refine`] to try it. The forward-difference Jacobian does not resolve
-/// much less: on the milling records of `identify/tests/refit_truth.rs` a step promising
+/// damped) for [`refine`] to try it. The Gauss–Newton model does not resolve much less
+/// (measured with the forward-difference Jacobian used before [`Problem::gauss_newton`],
+/// which ends at the same points): on the milling records of `identify/tests/refit_truth.rs` a step promising
 /// 5.2e-6 realised 5.0e-6, one promising 1.8e-7 realised +7e-9 after six rejected ever
 /// more damped tries, and the next, promising 2.2e-8, rejected all twelve (a third of the
 /// stage's time) to end where it started. 1e-6 would save the six tries too, but moved
@@ -951,35 +1149,7 @@ pub fn refine(
     };
     for _ in 0..opts.max_iter {
         iterations += 1;
-        // forward differences: ln ω by a thousandth of the half-power bandwidth
-        // the Jacobian's columns; JᵀJ and Jᵀr from their dot products
-        let mut jac: Vec<Vec<f64>> = Vec::with_capacity(np);
-        for i in 0..np {
-            let h = if i >= n_modes {
-                1e-4
-            } else if i % 2 == 0 {
-                1e-3 * theta[i + 1].exp()
-            } else {
-                1e-3
-            };
-            let mut t = theta.clone();
-            t[i] += h;
-            let e = prob.eval_moved(&t, i, &parts);
-            if e.r.len() != cur.r.len() {
-                return Err(Error::Numerical(
-                    "output-error refit: residual length changed".into(),
-                ));
-            }
-            jac.push(e.r.iter().zip(&cur.r).map(|(a, b)| (a - b) / h).collect());
-        }
-        let mut jtj = DMatrix::<f64>::zeros(np, np);
-        for i in 0..np {
-            for k in i..np {
-                jtj[(i, k)] = dot(&jac[i], &jac[k]);
-                jtj[(k, i)] = jtj[(i, k)];
-            }
-        }
-        let g = DVector::from_fn(np, |i, _| dot(&jac[i], &cur.r));
+        let (jtj, g) = prob.gauss_newton(&theta, &parts, &cur, np);
         let mut improved = false;
         let mut first_try = true;
         for _ in 0..12 {
