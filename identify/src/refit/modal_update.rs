@@ -502,45 +502,87 @@ pub fn update_modes_with(
         ));
     }
     let n_res = n_data + lay.n();
-    // the held modes' and the feedthrough's part of every point's model value: fixed
-    // during the update, so each evaluation adds only the free modes' terms
-    let held: Vec<Vec<Complex64>> = points
+    // the points' lines, shared between channels measured at the same lines: every
+    // 1/den below is computed once per line, not once per channel
+    let mut tables: Vec<&[f64]> = Vec::new();
+    let table_of: Vec<usize> = points
         .iter()
-        .zip(&chan_idx)
-        .map(|(p, ci)| {
-            let Some(ci) = *ci else {
-                return vec![Complex64::default(); p.freqs_hz.len()];
-            };
-            let ch = &model.channels[ci];
-            p.freqs_hz
-                .iter()
-                .map(|&f| {
-                    let s = Complex64::new(0.0, 2.0 * PI * f);
-                    let mut h = Complex64::new(ch.d, 0.0);
-                    for (k, (m, n)) in model.modes.iter().zip(&ch.num).enumerate() {
-                        if !lay.free.contains(&k) {
-                            h += (s * n.b1 + n.b0) / m.den(s);
-                        }
-                    }
-                    h
-                })
-                .collect()
+        .map(|p| {
+            let f = p.freqs_hz.as_slice();
+            tables.iter().position(|t| *t == f).unwrap_or_else(|| {
+                tables.push(f);
+                tables.len() - 1
+            })
         })
         .collect();
+    let s_of = |f: f64| Complex64::new(0.0, 2.0 * PI * f);
+    // 1/den of the modes `ks` of `m` at every line of every table (line-major)
+    let inv_dens = |m: &ModalModel, ks: &[usize]| -> Vec<Vec<Complex64>> {
+        tables
+            .iter()
+            .map(|t| {
+                t.iter()
+                    .flat_map(|&f| ks.iter().map(move |&k| 1.0 / m.modes[k].den(s_of(f))))
+                    .collect()
+            })
+            .collect()
+    };
+    let held_modes: Vec<usize> = (0..model.modes.len())
+        .filter(|k| !lay.free.contains(k))
+        .collect();
+    // the held modes' and the feedthrough's part of every point's model value: fixed
+    // during the update, so each evaluation adds only the free modes' terms
+    let held: Vec<Vec<Complex64>> = {
+        let inv = inv_dens(model, &held_modes);
+        let nh = held_modes.len();
+        points
+            .iter()
+            .zip(&chan_idx)
+            .zip(&table_of)
+            .map(|((p, ci), &t)| {
+                let Some(ci) = *ci else {
+                    return vec![Complex64::default(); p.freqs_hz.len()];
+                };
+                let ch = &model.channels[ci];
+                p.freqs_hz
+                    .iter()
+                    .enumerate()
+                    .map(|(l, &f)| {
+                        let s = s_of(f);
+                        let mut h = Complex64::new(ch.d, 0.0);
+                        for (x, &k) in held_modes.iter().enumerate() {
+                            let n = ch.num[k];
+                            h += (s * n.b1 + n.b0) * inv[t][l * nh + x];
+                        }
+                        h
+                    })
+                    .collect()
+            })
+            .collect()
+    };
+    let nf = lay.free.len();
     let residuals = |theta: &[f64]| -> (DVector<f64>, ModalModel) {
         let m = unpack(model, &lay, theta, &scale);
+        let inv = inv_dens(&m, &lay.free);
         let mut r = DVector::zeros(n_res);
         let mut i = 0;
-        for ((p, ci), held) in points.iter().zip(&chan_idx).zip(&held) {
-            for (((f, h), s), hv) in p.freqs_hz.iter().zip(&p.h).zip(&p.sigma).zip(held) {
+        for (((p, ci), held), &t) in points.iter().zip(&chan_idx).zip(&held).zip(&table_of) {
+            for (l, (((f, h), s), hv)) in p
+                .freqs_hz
+                .iter()
+                .zip(&p.h)
+                .zip(&p.sigma)
+                .zip(held)
+                .enumerate()
+            {
                 let e = match ci {
                     Some(ci) => {
-                        let sv = Complex64::new(0.0, 2.0 * PI * f);
+                        let sv = s_of(*f);
                         let ch = &m.channels[*ci];
                         let mut v = *hv;
-                        for &k in &lay.free {
+                        for (j, &k) in lay.free.iter().enumerate() {
                             let n = ch.num[k];
-                            v += (sv * n.b1 + n.b0) / m.modes[k].den(sv);
+                            v += (sv * n.b1 + n.b0) * inv[t][l * nf + j];
                         }
                         (v - h) / *s
                     }
@@ -586,26 +628,28 @@ pub fn update_modes_with(
         let mut i = 0;
         let mut re = vec![0.0; 4 * lay.free.len()];
         let mut im = re.clone();
-        for (p, ci) in points.iter().zip(&chan_idx) {
+        let inv = inv_dens(m, &lay.free);
+        for ((p, ci), &t) in points.iter().zip(&chan_idx).zip(&table_of) {
             let Some(ci) = *ci else {
                 i += 2 * p.h.len();
                 continue;
             };
             let cs = &chan_cols[ci];
-            for (f, s) in p.freqs_hz.iter().zip(&p.sigma) {
-                let sv = Complex64::new(0.0, 2.0 * PI * f);
+            for (l, (f, s)) in p.freqs_hz.iter().zip(&p.sigma).enumerate() {
+                let sv = s_of(*f);
                 for (j, &k) in lay.free.iter().enumerate() {
                     let mode = m.modes[k];
-                    let den = mode.den(sv);
+                    let iv = inv[t][l * nf + j];
                     let num = m.channels[ci].num[k];
                     let nv = sv * num.b1 + num.b0;
                     // d/d ln ω and d/d ln ζ of (b1 s + b0)/(s² + 2ζω s + ω²)
                     let [dden_dlnw, dden_dlnz] = mode.den_log_derivatives(sv);
+                    let niv2 = -nv * iv * iv;
                     let vs = [
-                        -nv * dden_dlnw / (den * den),
-                        -nv * dden_dlnz / (den * den),
-                        Complex64::new(scale[j], 0.0) / den,
-                        sv * (scale[j] / model.modes[k].wn) / den,
+                        niv2 * dden_dlnw,
+                        niv2 * dden_dlnz,
+                        iv * scale[j],
+                        sv * (scale[j] / model.modes[k].wn) * iv,
                     ];
                     for (q, v) in vs.iter().enumerate() {
                         re[4 * j + q] = v.re / s;

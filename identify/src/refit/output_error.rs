@@ -301,34 +301,53 @@ fn prepare(held: &ModalModel, skip: usize, ts: &TimeSeries) -> Result<Prepared> 
         targets: Vec::new(),
         inverse,
     };
+    // per measured output, the held channels from an excited force: (channel, force)
+    let mut paths: Vec<(Axis, Vec<(usize, usize)>)> = Vec::new();
     for o in Axis::ALL {
-        let Some(meas) = ts.response(o) else { continue };
-        let mut hs = Vec::new();
-        for c in (0..held.channels.len()).filter(|&c| held.channels[c].channel.output == o) {
-            let Some(j) = p
-                .forces
-                .iter()
-                .position(|(a, _)| *a == held.channels[c].channel.input)
-            else {
-                continue;
-            };
-            let h: Vec<Complex64> = p
-                .omega
-                .iter()
-                .map(|&w| {
-                    let hk = held.eval_s(c, Complex64::new(0.0, w));
-                    if accel {
-                        hk * (-w * w)
-                    } else {
-                        hk
-                    }
-                })
-                .collect();
-            hs.push((j, h));
-        }
-        if hs.is_empty() {
+        if ts.response(o).is_none() {
             continue;
         }
+        let cs: Vec<(usize, usize)> = (0..held.channels.len())
+            .filter(|&c| held.channels[c].channel.output == o)
+            .filter_map(|c| {
+                let j = p
+                    .forces
+                    .iter()
+                    .position(|(a, _)| *a == held.channels[c].channel.input)?;
+                Some((c, j))
+            })
+            .collect();
+        if !cs.is_empty() {
+            paths.push((o, cs));
+        }
+    }
+    // the held transfers at every line: each mode's 1/den once per line for all channels
+    let n_paths: usize = paths.iter().map(|(_, cs)| cs.len()).sum();
+    let mut hv: Vec<Vec<Complex64>> = vec![Vec::with_capacity(p.omega.len()); n_paths];
+    let mut inv = vec![Complex64::default(); held.modes.len()];
+    for &w in &p.omega {
+        let s = Complex64::new(0.0, w);
+        for (iv, m) in inv.iter_mut().zip(&held.modes) {
+            *iv = 1.0 / m.den(s);
+        }
+        let kind = if accel { -w * w } else { 1.0 };
+        for (h, (c, _)) in hv.iter_mut().zip(paths.iter().flat_map(|(_, cs)| cs)) {
+            let ch = &held.channels[*c];
+            let mut v = Complex64::new(ch.d, 0.0);
+            for (n, iv) in ch.num.iter().zip(&inv) {
+                v += (s * n.b1 + n.b0) * iv;
+            }
+            h.push(v * kind);
+        }
+    }
+    let mut hv = hv.into_iter();
+    for (o, cs) in paths {
+        let hs: Vec<HeldPath> = cs
+            .iter()
+            .zip(hv.by_ref())
+            .map(|(&(_, j), h)| (j, h))
+            .collect();
+        let Some(meas) = ts.response(o) else { continue };
         p.held.push((o, hs));
         p.targets.push((o, demean(meas[skip..n].to_vec())));
     }
@@ -413,11 +432,13 @@ impl RecPart {
     }
 }
 
-/// Linear solution and residual at one θ.
+/// Linear solution and cost at one θ.
 struct Eval {
-    /// Weighted residual over every record and output, then the prior residuals.
-    r: Vec<f64>,
-    /// Samples in `r` (without the prior residuals).
+    /// Sum of squares of the weighted residual over every record and output.
+    data_ss: f64,
+    /// The same plus the prior residuals' squares: the cost minimised.
+    cost: f64,
+    /// Residual samples in `data_ss`.
     n_data: usize,
     /// Per output: the numerator solution, ordered (channel, free mode, [b0, b1]).
     beta: Vec<DVector<f64>>,
@@ -530,10 +551,9 @@ impl Problem<'_> {
     }
 
     /// Numerators by linear least squares per output over the records' parts
-    /// (targets, columns), the weighted residual and the prior residuals.
+    /// (targets, columns), the weighted residual's and the prior residuals' squares.
     fn combine(&self, theta: &[f64], per_rec: &[PartRef]) -> Eval {
-        let mut r = Vec::new();
-        let mut prior_r = Vec::new();
+        let (mut data_ss, mut prior_ss, mut n_data) = (0.0, 0.0, 0);
         let mut beta = Vec::new();
         for (oi, (_, _, w)) in self.outputs.iter().enumerate() {
             let spec = self.spec(oi);
@@ -578,36 +598,46 @@ impl Problem<'_> {
                 let Some(y) = self.target_of(ri, part.targets, oi) else {
                     continue;
                 };
-                let mut res = y.to_vec();
-                for (a, s) in spec.iter().enumerate() {
-                    if let Some(ca) = self.column(part.cols, *s) {
-                        res.iter_mut().zip(ca).for_each(|(e, x)| *e -= bo[a] * x);
-                    }
-                }
-                r.extend(res.into_iter().map(|e| e * w));
+                let cols: Vec<(f64, &[f64])> = spec
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(a, s)| self.column(part.cols, *s).map(|c| (bo[a], c)))
+                    .collect();
+                // Σ (y − Σ β col)² in one pass, without the residual itself
+                let n = cols.iter().map(|(_, c)| c.len()).fold(y.len(), usize::min);
+                let [ss] = crate::lanes::sum(n, |k| {
+                    let e = cols.iter().fold(y[k], |e, (b, c)| e - b * c[k]);
+                    [e * e]
+                });
+                data_ss += w * w * ss;
+                n_data += n;
             }
             if let Some((b0, iv)) = ridge {
                 for a in 0..np {
-                    prior_r.push(self.prior_scale * (bo[a] - b0[a]) * iv[a].sqrt());
+                    prior_ss += (self.prior_scale * (bo[a] - b0[a])).powi(2) * iv[a];
                 }
             }
             beta.push(bo);
         }
-        let n_data = r.len();
-        r.extend(prior_r);
         if let Some(mp) = &self.mode_prior {
             for (t, (c, sd)) in theta.iter().zip(mp) {
-                r.push(self.prior_scale * (t - c) / sd);
+                prior_ss += (self.prior_scale * (t - c) / sd).powi(2);
             }
         }
         if self.with_noise {
             for (ri, p) in self.recs.iter().enumerate() {
                 for j in 0..p.forces.len() {
-                    r.push(self.prior_scale * theta[self.noise_at[ri] + j] / NOISE_PRIOR);
+                    prior_ss +=
+                        (self.prior_scale * theta[self.noise_at[ri] + j] / NOISE_PRIOR).powi(2);
                 }
             }
         }
-        Eval { r, n_data, beta }
+        Eval {
+            data_ss,
+            cost: data_ss + prior_ss,
+            n_data,
+            beta,
+        }
     }
 
     /// `JᵀJ` and `Jᵀr` of the residual at `theta` (evaluation `cur`, the records' parts
@@ -1119,14 +1149,14 @@ pub fn refine(
     let np = if opts.force_noise { np } else { n_modes };
     let theta0 = theta.clone();
     let (first, mut parts) = prob.eval_with_parts(&theta);
-    let rel_before = (sumsq(&first.r) / first.n_data.max(1) as f64).sqrt();
+    let rel_before = (first.data_ss / first.n_data.max(1) as f64).sqrt();
     prob.prior_scale = rel_before;
     // the records' parts do not depend on the prior's scale: only the combination again
     let mut cur = {
         let refs: Vec<PartRef> = parts.iter().map(RecPart::as_ref).collect();
         prob.combine(&theta, &refs)
     };
-    let mut cost = sumsq(&cur.r);
+    let mut cost = cur.cost;
     let mut lambda = 1e-3;
     let mut iterations = 0;
     // bounds: the given ones, else frequency within ±30 % of the start, damping
@@ -1175,9 +1205,12 @@ pub fn refine(
             }
             clamp(&mut t);
             let (e, ep) = prob.eval_with_parts(&t);
-            let c = sumsq(&e.r);
+            let c = e.cost;
             if c.is_finite() && c < cost {
                 let rel_gain = (cost - c) / cost;
+                if std::env::var_os("MTWIN_DEBUG_REFIT").is_some() {
+                    eprintln!("output error: step {iterations}, cost down by {rel_gain:.3e} (λ {lambda:.1e})");
+                }
                 theta = t;
                 cur = e;
                 parts = ep;
@@ -1204,7 +1237,7 @@ pub fn refine(
     Ok(OeResult {
         model,
         rel_rms_before: rel_before,
-        rel_rms_after: (sumsq(&cur.r[..cur.n_data]) / cur.n_data.max(1) as f64).sqrt(),
+        rel_rms_after: (cur.data_ss / cur.n_data.max(1) as f64).sqrt(),
         iterations,
         skipped_s,
         force_noise,
