@@ -147,8 +147,8 @@ fn noise_psd(units: &[TimeSeries], nfft: usize) -> NoisePsd {
     )
 }
 
-fn tail_psd<'a>(
-    units: &'a [TimeSeries],
+fn tail_psd(
+    units: &[TimeSeries],
     nfft: usize,
     signal: impl Fn(&TimeSeries, Axis) -> Option<&[f64]>,
 ) -> Vec<(Axis, Vec<f64>)> {

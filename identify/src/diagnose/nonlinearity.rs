@@ -424,7 +424,7 @@ fn build_candidate(
     d.insert("damping_low_force".into(), json!(low.modes[k].zeta));
     d.insert("damping_high_force".into(), json!(high.modes[k].zeta));
     d.insert("force_split_n".into(), json!(split));
-    d.insert("axis".into(), json!(dominant_axis(&m0, k).to_string()));
+    d.insert("axis".into(), json!(dominant_axis(m0, k).to_string()));
     Some(Cand {
         cause: Cause::Nonlinearity,
         chi: f64::NAN,
