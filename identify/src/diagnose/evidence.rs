@@ -124,6 +124,94 @@ pub struct Evidence {
 /// Per-hit H1 of impact records (rectangular window per hit, zero-padded to the longest
 /// hit), grouped by the axis each hit excites.
 fn impact_evidence(parts: &[TimeSeries]) -> Result<Evidence> {
+    impact_evidence_with(parts, None)
+}
+
+/// Share of each hit segment, at its end, that [`noise_psd`] takes as the sensor's
+/// noise: by then the structure's response to the hit has decayed (a mode of 1 %
+/// damping at 100 Hz has lost 98 % of its amplitude after 0.6 s; the less damped
+/// ring on, and their rest counts as noise: conservative).
+const NOISE_TAIL: f64 = 0.3;
+
+/// Per response axis, the noise power per sample at each line of an `nfft`-point
+/// transform: the mean of `|FFT(tail)|² / len(tail)` over the last [`NOISE_TAIL`] of
+/// every hit segment of `units` (mean removed), smoothed over ±3 lines. A property of
+/// the sensor and the acquisition, the same at every force level.
+/// Per response axis and (second) per force axis.
+type NoisePsd = (Vec<(Axis, Vec<f64>)>, Vec<(Axis, Vec<f64>)>);
+
+fn noise_psd(units: &[TimeSeries], nfft: usize) -> NoisePsd {
+    (
+        tail_psd(units, nfft, |s, ax| s.response(ax)),
+        tail_psd(units, nfft, |s, ax| s.force(ax)),
+    )
+}
+
+fn tail_psd(
+    units: &[TimeSeries],
+    nfft: usize,
+    signal: impl Fn(&TimeSeries, Axis) -> Option<&[f64]>,
+) -> Vec<(Axis, Vec<f64>)> {
+    let fft = FftPlanner::<f64>::new().plan_fft_forward(nfft);
+    let nl = nfft / 2;
+    let segs: Vec<TimeSeries> = units.iter().flat_map(hit_segments).collect();
+    let mut out = Vec::new();
+    for ax in Axis::ALL {
+        let mut acc = vec![0.0; nl];
+        let mut n = 0usize;
+        for s in &segs {
+            let Some(y) = signal(s, ax) else { continue };
+            let len = ((y.len() as f64 * NOISE_TAIL) as usize).min(nfft);
+            if len < 16 {
+                continue;
+            }
+            let tail = &y[y.len() - len..];
+            let mean = tail.iter().sum::<f64>() / len as f64;
+            // Hann window: the strong low-frequency (1/f) noise must not leak into the
+            // lines above through a rectangular window's side lobes
+            let w: Vec<f64> = (0..len)
+                .map(|i| 0.5 - 0.5 * (2.0 * PI * i as f64 / len as f64).cos())
+                .collect();
+            let w2: f64 = w.iter().map(|v| v * v).sum();
+            let mut b: Vec<Complex64> = tail
+                .iter()
+                .zip(&w)
+                .map(|(v, w)| Complex64::new((v - mean) * w, 0.0))
+                .collect();
+            b.resize(nfft, Complex64::new(0.0, 0.0));
+            fft.process(&mut b);
+            for l in 1..nl {
+                acc[l] += b[l].norm_sqr() / w2;
+            }
+            n += 1;
+        }
+        if n == 0 {
+            continue;
+        }
+        let smooth: Vec<f64> = (0..nl)
+            .map(|l| {
+                let (a, b) = (l.saturating_sub(3).max(1), (l + 3).min(nl - 1));
+                if b < a {
+                    return 0.0;
+                }
+                acc[a..=b].iter().sum::<f64>() / ((b - a + 1) * n) as f64
+            })
+            .collect();
+        out.push((ax, smooth));
+    }
+    out
+}
+
+/// [`impact_evidence`]; with `noise_from`, each point's standard error from the sensor's
+/// noise measured in the quiet ends of those records' hits ([`noise_psd`]):
+/// `σ² = S_N Σ|F_i|² N_i / (Σ|F_i|²)²` over the hits `i` (length `N_i`) of the estimate.
+/// Unlike the coherence of a few hits (2 hits: any noise looks half coherent; 1 hit: no
+/// coherence at all) it holds for any number of hits, so FRFs of a few hits at one force
+/// level can be compared with another level's.
+fn impact_evidence_with(
+    parts: &[TimeSeries],
+    noise_from: Option<&[TimeSeries]>,
+) -> Result<Evidence> {
     let mut segs: Vec<(Axis, TimeSeries)> = Vec::new();
     for ts in parts {
         for seg in hit_segments(ts) {
@@ -154,6 +242,8 @@ fn impact_evidence(parts: &[TimeSeries]) -> Result<Evidence> {
     let df = 1.0 / (nfft as f64 * dt);
     let freqs: Vec<f64> = (1..nl).map(|l| l as f64 * df).collect();
     let mut channels = Vec::new();
+    let mut sigmas: Vec<Vec<f64>> = Vec::new();
+    let noise = noise_from.map(|u| noise_psd(u, nfft));
     let mut n_avg = usize::MAX;
     let mut pw = 0.0;
     let mut pw_noise = 0.0;
@@ -174,6 +264,7 @@ fn impact_evidence(parts: &[TimeSeries]) -> Result<Evidence> {
             let mut gff = vec![0.0; nl];
             let mut gyy = vec![0.0; nl];
             let mut gfy = vec![Complex64::new(0.0, 0.0); nl];
+            let mut gffn = vec![0.0; nl];
             for s in &group {
                 let spec = |x: &[f64]| {
                     let mut b: Vec<Complex64> = x.iter().map(|v| Complex64::new(*v, 0.0)).collect();
@@ -185,6 +276,7 @@ fn impact_evidence(parts: &[TimeSeries]) -> Result<Evidence> {
                 let y = spec(s.response(out).unwrap_or(&[]));
                 for l in 1..nl {
                     gff[l] += f[l].norm_sqr();
+                    gffn[l] += f[l].norm_sqr() * s.len() as f64;
                     gyy[l] += y[l].norm_sqr();
                     gfy[l] += f[l].conj() * y[l];
                 }
@@ -204,12 +296,32 @@ fn impact_evidence(parts: &[TimeSeries]) -> Result<Evidence> {
                 pw += gyy[l];
                 pw_noise += (1.0 - g) * gyy[l];
             }
+            // the response's noise, and the force's (a light hit's force spectrum at high
+            // frequencies is not far above the force sensor's noise: H1 scatters by |H|
+            // times their ratio)
+            let of = |v: &Vec<(Axis, Vec<f64>)>, x: Axis| {
+                v.iter().find(|(a, _)| *a == x).map(|(_, p)| p.clone())
+            };
+            let psd = noise
+                .as_ref()
+                .and_then(|(r, f)| Some((of(r, out)?, of(f, inp)?)));
+            sigmas.push(psd.map_or_else(Vec::new, |(py, pf)| {
+                (1..nl)
+                    .map(|l| {
+                        let w2 = (2.0 * PI * l as f64 * df).powi(2);
+                        let conv = if accel { 1.0 / w2 } else { 1.0 };
+                        let h_raw = gfy[l].norm() / gff[l].max(1e-300);
+                        let s = py[l] + h_raw * h_raw * pf[l];
+                        (s * gffn[l]).sqrt() / gff[l].max(1e-300) * conv
+                    })
+                    .collect()
+            }));
             channels.push((Channel::new(out, inp), h, coh));
         }
     }
     Ok(Evidence {
         freqs_hz: freqs,
-        sigma: vec![Vec::new(); channels.len()],
+        sigma: sigmas,
         channels,
         n_avg: n_avg.max(1),
         kind: "impact".into(),
@@ -284,6 +396,12 @@ fn continuous_evidence(parts: &[TimeSeries]) -> Result<Evidence> {
         kind: "continuous".into(),
         noise_share: if pw > 0.0 { pwn / pw } else { 0.0 },
     })
+}
+
+/// Impact evidence of `units` (hits at one force level) with standard errors from the
+/// sensor noise in the quiet ends of all the hits `noise_from` ([`impact_evidence_with`]).
+pub(super) fn level_evidence(units: &[TimeSeries], noise_from: &[TimeSeries]) -> Result<Evidence> {
+    impact_evidence_with(units, Some(noise_from))
 }
 
 /// FRF evidence of the building parts of the records.

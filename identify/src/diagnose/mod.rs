@@ -627,6 +627,16 @@ pub fn diagnose(
         if light_matches_twin && close_to_best && best_is_linear_retune {
             best = Some((i, s.fit_holdout_pct));
         }
+        // FRFs of one test at distinct force levels that disagree beyond their variance
+        // (nonlinearity's `level_disagreement`) are no linear change of the twin: no
+        // linear retune can explain them, with or without a misfit against the twin
+        let levels_disagree = s.details.contains_key("level_disagreement");
+        if levels_disagree
+            && best_is_linear_retune
+            && s.fit_holdout_pct >= fit_before - opts.min_gain_pct
+        {
+            best = Some((i, s.fit_holdout_pct));
+        }
     }
     let (cause, mut details, ext, fit_after) = match best {
         // the linearised twin helps only when hard hits dominate the held-out data; else

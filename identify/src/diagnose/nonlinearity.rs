@@ -2,7 +2,9 @@
 //! it, or the twin linearised at the high force level.
 
 use super::candidate::{dominant_axis, map_models, retune, Cand};
-use super::evidence::{evidence, force_mag, holdout_fit, level_units, twin_points, Split};
+use super::evidence::{
+    evidence, force_mag, holdout_fit, is_impact, level_evidence, level_units, twin_points, Split,
+};
 use super::{trace, Cause};
 use crate::modal_update::Points;
 use crate::model::ModalModel;
@@ -89,6 +91,10 @@ pub(super) fn cand_nonlinearity(
         return None;
     }
     trace(|| format!("nonlinearity: force peaks {lo:.1}..{hi:.1} N"));
+    let levels = force_level_clusters(&peaks);
+    if levels.len() >= 3 && parts.iter().all(is_impact) {
+        return cand_by_level_pairs(twin, parts, &peaks, &levels, band, pose);
+    }
     let split = (lo * hi).sqrt();
     let group = |high: bool| -> Vec<TimeSeries> {
         parts
@@ -190,13 +196,204 @@ pub(super) fn cand_nonlinearity(
     } else {
         "softening"
     };
+    build_candidate(twin, &m0, k, (&low, &high), kind, &high_recs, parts, split)
+}
+
+/// The hit units' force levels when the test was run at distinct levels: the units
+/// (indices into `peaks`) sorted by peak force, a new level wherever the next peak is at
+/// least [`LEVEL_GAP`] times the last (hits of one level scatter less).
+fn force_level_clusters(peaks: &[f64]) -> Vec<Vec<usize>> {
+    let mut idx: Vec<usize> = (0..peaks.len()).filter(|&i| peaks[i] > 0.0).collect();
+    idx.sort_by(|&a, &b| peaks[a].total_cmp(&peaks[b]));
+    let mut out: Vec<Vec<usize>> = Vec::new();
+    for i in idx {
+        match out.last_mut() {
+            Some(l) if peaks[i] < LEVEL_GAP * peaks[*l.last().unwrap_or(&i)] => l.push(i),
+            _ => out.push(vec![i]),
+        }
+    }
+    out
+}
+
+/// Ratio between consecutive sorted hit peaks that starts a new force level.
+const LEVEL_GAP: f64 = 1.5;
+
+/// Hits at three or more distinct force levels: the FRF of each level with standard
+/// errors from the sensor's noise ([`level_evidence`]; a level may hold one or two hits,
+/// and the lightest may be buried in noise at a low mode), compared pairwise. The twin's
+/// mode around which two levels disagree most beyond their variance (at least
+/// [`LEVEL_DISAGREEMENT_MIN`]) is the nonlinear one; its frequency and damping refitted
+/// on each of the two levels' FRF near it say how it moves (up with the force level =
+/// hardening). Pooling the levels in two groups would mix them (a middle level with the
+/// hard one blurs both and their coherence).
+fn cand_by_level_pairs(
+    twin: &Twin,
+    parts: &[TimeSeries],
+    peaks: &[f64],
+    levels: &[Vec<usize>],
+    band: (f64, f64),
+    pose: [f64; 3],
+) -> Option<Cand> {
+    let m0 = twin.model_at(pose).ok()?;
+    let recs_of =
+        |l: &[usize]| -> Vec<TimeSeries> { l.iter().map(|&i| parts[i].clone()).collect() };
+    let level_peak = |l: &[usize]| l.iter().map(|&i| peaks[i]).fold(0.0, f64::max);
+    let pts: Vec<Vec<Points>> = levels
+        .iter()
+        .map(|l| {
+            level_evidence(&recs_of(l), parts)
+                .map(|e| level_points(&e, &m0, band))
+                .unwrap_or_default()
+        })
+        .collect();
+    trace(|| {
+        format!(
+            "nonlinearity: {} force levels, peaks {:.0?} N",
+            levels.len(),
+            levels.iter().map(|l| level_peak(l)).collect::<Vec<_>>()
+        )
+    });
+    // (disagreement, mode, lower level, higher level)
+    let mut best: Option<(f64, usize, usize, usize)> = None;
+    for (k, m) in m0.modes.iter().enumerate() {
+        let f0 = m.freq_hz();
+        if f0 < band.0 || f0 > band.1 {
+            continue;
+        }
+        for a in 0..levels.len() {
+            for b in a + 1..levels.len() {
+                let d = level_disagreement(&pts[a], &pts[b], f0, m.zeta);
+                if best.is_none_or(|x| d > x.0) {
+                    best = Some((d, k, a, b));
+                }
+            }
+        }
+    }
+    let (dis, k, a, b) = best?;
+    trace(|| {
+        format!(
+            "nonlinearity: levels {a} and {b} disagree most around mode {k} ({:.1} Hz): {dis:.2} x their variance",
+            m0.modes[k].freq_hz()
+        )
+    });
+    if dis < LEVEL_DISAGREEMENT_MIN {
+        return None;
+    }
+    // how the force level moves the mode: the centroid of the response power above the
+    // noise near it, per level (model-free; a refit of one mode of a close pair on a few
+    // noisy hits jumps between the two)
+    let f0 = m0.modes[k].freq_hz();
+    let half = (3.0 * m0.modes[k].zeta * f0).max(0.05 * f0);
+    let (ca, cb) = (
+        centroid(&pts[a], f0 - half, f0 + half)?,
+        centroid(&pts[b], f0 - half, f0 + half)?,
+    );
+    let df = cb / ca - 1.0;
+    trace(|| {
+        format!(
+            "nonlinearity: mode {k}: response centroid {ca:.2} Hz ({:.0} N) -> {cb:.2} Hz ({:.0} N), {:+.2} %",
+            level_peak(&levels[a]),
+            level_peak(&levels[b]),
+            100.0 * df
+        )
+    });
+    if df.abs() < 0.002 {
+        // the levels disagree, but not by a move of the mode
+        return None;
+    }
+    let kind = if df > 0.0 { "hardening" } else { "softening" };
+    // the light level as the twin, the hard one as the twin with the mode moved
+    let low = m0.clone();
+    let mut high = m0.clone();
+    high.modes[k].wn *= 1.0 + df;
+    let split = (level_peak(&levels[a]) * level_peak(&levels[b])).sqrt();
+    let mut c = build_candidate(
+        twin,
+        &m0,
+        k,
+        (&low, &high),
+        kind,
+        &recs_of(&levels[b]),
+        parts,
+        split,
+    )?;
+    c.details.insert("level_disagreement".into(), json!(dis));
+    c.details.insert(
+        "force_levels_compared_n".into(),
+        json!([level_peak(&levels[a]), level_peak(&levels[b])]),
+    );
+    c.details
+        .insert("response_centroid_hz".into(), json!([ca, cb]));
+    Some(c)
+}
+
+/// Centroid \[Hz\] of the response power above the noise, `Σ f (|H|² − σ²)⁺ / Σ (|H|² − σ²)⁺`,
+/// over the lines of `pts` between `lo` and `hi`.
+fn centroid(pts: &[Points], lo: f64, hi: f64) -> Option<f64> {
+    let (mut sw, mut swf) = (0.0, 0.0);
+    for p in pts {
+        for ((f, h), s) in p.freqs_hz.iter().zip(&p.h).zip(&p.sigma) {
+            if *f >= lo && *f <= hi {
+                let w = (h.norm_sqr() - s * s).max(0.0);
+                sw += w;
+                swf += w * f;
+            }
+        }
+    }
+    (sw > 0.0).then(|| swf / sw)
+}
+
+/// Every channel of `ev` that `model` holds, its lines in `band` whose standard error
+/// (from the sensor noise) is known, floored at 0.5 % of the point.
+fn level_points(
+    ev: &super::evidence::Evidence,
+    model: &ModalModel,
+    band: (f64, f64),
+) -> Vec<Points> {
+    ev.channels
+        .iter()
+        .zip(&ev.sigma)
+        .filter(|((c, _, _), sig)| model.channel_index(*c).is_some() && !sig.is_empty())
+        .map(|((c, h, _), sig)| {
+            let keep: Vec<usize> = (0..ev.freqs_hz.len())
+                .filter(|&i| ev.freqs_hz[i] >= band.0 && ev.freqs_hz[i] <= band.1)
+                .filter(|&i| sig[i].is_finite() && sig[i] > 0.0)
+                .collect();
+            Points {
+                channel: *c,
+                freqs_hz: keep.iter().map(|&i| ev.freqs_hz[i]).collect(),
+                h: keep.iter().map(|&i| h[i]).collect(),
+                sigma: keep
+                    .iter()
+                    .map(|&i| sig[i].max(5e-3 * h[i].norm()))
+                    .collect(),
+            }
+        })
+        .filter(|p| !p.h.is_empty())
+        .collect()
+}
+
+/// The nonlinearity candidate of mode `k`, refitted as `low` and `high` at a light and a
+/// hard force level (the hard level's records `high_recs`), from the build records `parts`.
+#[allow(clippy::too_many_arguments)]
+fn build_candidate(
+    twin: &Twin,
+    m0: &ModalModel,
+    k: usize,
+    (low, high): (&ModalModel, &ModalModel),
+    kind: &str,
+    high_recs: &[TimeSeries],
+    parts: &[TimeSeries],
+    split: f64,
+) -> Option<Cand> {
+    let df = high.modes[k].wn / low.modes[k].wn - 1.0;
     let mut d = Map::new();
     // the extension: a cubic modal stiffness when it explains both force levels better than
     // the linear twin does, else the twin linearised at the high force level
     let cubic = if kind == "friction" {
         None
     } else {
-        fit_cubic(twin, &m0, k, df, &high_recs, parts)
+        fit_cubic(twin, m0, k, df, high_recs, parts)
     };
     let ext = match cubic {
         Some((t, kappa, fit_lin, fit_cubic)) => {
@@ -215,7 +412,7 @@ pub(super) fn cand_nonlinearity(
         }
         None => map_models(twin, |m| {
             let mut m = m.clone();
-            crate::modal_update::apply_change(&mut m, &m0, &high, 1.0);
+            crate::modal_update::apply_change(&mut m, m0, high, 1.0);
             m
         }),
     };
@@ -227,7 +424,7 @@ pub(super) fn cand_nonlinearity(
     d.insert("damping_low_force".into(), json!(low.modes[k].zeta));
     d.insert("damping_high_force".into(), json!(high.modes[k].zeta));
     d.insert("force_split_n".into(), json!(split));
-    d.insert("axis".into(), json!(dominant_axis(&m0, k).to_string()));
+    d.insert("axis".into(), json!(dominant_axis(m0, k).to_string()));
     Some(Cand {
         cause: Cause::Nonlinearity,
         chi: f64::NAN,

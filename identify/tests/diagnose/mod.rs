@@ -2,3 +2,4 @@
 
 mod hidden;
 mod hidden_milling;
+mod lumped_levels;
