@@ -488,7 +488,9 @@ impl ForceStats {
                 (s1, s2, lo, hi) = (s1 + d, s2 + q, lo.min(l), hi.max(h));
                 let first = start + b * STATS_BLOCK;
                 let skip = (stride - first % stride) % stride;
-                subsample.extend(block.iter().skip(skip).step_by(stride));
+                // (chunks: an iterator of known length, the first sample of each)
+                let picked = block.get(skip..).unwrap_or(&[]).chunks(stride);
+                subsample.extend(picked.map(|c| c[0]));
             }
             sums.push((c, s1, s2, n as f64));
         }
@@ -1069,7 +1071,11 @@ impl Accumulator {
         // linear chirp's band into the anti-alias filter's noise (99.8 -> 94 % vs truth).
         // The smoothed lines are computed where they are looked at (no buffer of them).
         if smooth {
-            let s = OctaveSmoother::new((0..self.nl).map(raw), 1.0 / 12.0);
+            let s = if ni == 1 {
+                OctaveSmoother::new(self.gff1[..self.nl].iter().copied(), 1.0 / 12.0)
+            } else {
+                OctaveSmoother::new((0..self.nl).map(raw), 1.0 / 12.0)
+            };
             band_around_peak(self.nl, |k| s.at(k + 1), lim)
         } else {
             band_around_peak(self.nl, raw, lim)
@@ -1191,10 +1197,18 @@ impl Accumulator {
 /// values `p(0..n)` (the last of equal ones) where they stay at least `lim` times it;
 /// `None` when there are none or the largest is not positive.
 fn band_around_peak(n: usize, p: impl Fn(usize) -> f64, lim: f64) -> Option<(usize, usize)> {
-    let (kmax, pmax) = (0..n)
-        .map(&p)
-        .enumerate()
-        .max_by(|a, b| a.1.total_cmp(&b.1))?;
+    if n == 0 {
+        return None;
+    }
+    // the largest as `Iterator::max_by` by `total_cmp` finds it (a later equal one
+    // wins), in a loop that keeps the running maximum in registers
+    let (mut kmax, mut pmax) = (0, p(0));
+    for k in 1..n {
+        let v = p(k);
+        if v.total_cmp(&pmax) != std::cmp::Ordering::Less {
+            (kmax, pmax) = (k, v);
+        }
+    }
     if pmax <= 0.0 {
         return None;
     }
@@ -1221,12 +1235,12 @@ struct OctaveSmoother {
 
 impl OctaveSmoother {
     fn new(v: impl ExactSizeIterator<Item = f64>, octaves: f64) -> Self {
-        let mut pre = Vec::with_capacity(v.len() + 1);
+        // (written into place: the running sum stays in a register)
+        let mut pre = vec![0.0; v.len() + 1];
         let mut last = 0.0;
-        pre.push(last);
-        for x in v {
+        for (p, x) in pre[1..].iter_mut().zip(v) {
             last += x;
-            pre.push(last);
+            *p = last;
         }
         OctaveSmoother {
             r: 2f64.powf(octaves),
