@@ -488,7 +488,9 @@ impl ForceStats {
                 (s1, s2, lo, hi) = (s1 + d, s2 + q, lo.min(l), hi.max(h));
                 let first = start + b * STATS_BLOCK;
                 let skip = (stride - first % stride) % stride;
-                subsample.extend(block.iter().skip(skip).step_by(stride));
+                // (chunks: an iterator of known length, the first sample of each)
+                let picked = block.get(skip..).unwrap_or(&[]).chunks(stride);
+                subsample.extend(picked.map(|c| c[0]));
             }
             sums.push((c, s1, s2, n as f64));
         }
@@ -805,8 +807,13 @@ struct Accumulator {
     inputs: Vec<Axis>,
     outputs: Vec<Axis>,
     nl: usize,
-    /// `[i][j][k] = Σ conj(F_i) F_j`
+    /// `[i][j][k] = Σ conj(F_i) F_j` of several inputs (empty for one input: see
+    /// `gff1`)
     gff: Vec<Complex64>,
+    /// `[k] = Σ |F|²` of a single input, the real part of `Σ conj(F) F` computed as such
+    /// (its imaginary part is zero; the sum in half the memory, empty for several
+    /// inputs)
+    gff1: Vec<f64>,
     /// `[i][o][k] = Σ conj(F_i) Y_o`
     gfy: Vec<Complex64>,
     /// `[o][k] = Σ |Y_o|²`
@@ -851,8 +858,9 @@ fn keep<T>(pool: &mut Vec<Vec<T>>, v: Vec<T>) {
 
 impl Drop for Accumulator {
     fn drop(&mut self) {
-        let (gff, gfy, gyy) = (
+        let (gff, gff1, gfy, gyy) = (
             std::mem::take(&mut self.gff),
+            std::mem::take(&mut self.gff1),
             std::mem::take(&mut self.gfy),
             std::mem::take(&mut self.gyy),
         );
@@ -860,6 +868,7 @@ impl Drop for Accumulator {
         let _ = SUMS.try_with(|p| {
             let (c, r) = &mut *p.borrow_mut();
             keep(c, gff);
+            keep(r, gff1);
             keep(c, gfy);
             keep(r, gyy);
         });
@@ -869,15 +878,18 @@ impl Drop for Accumulator {
 impl Accumulator {
     fn new(inputs: Vec<Axis>, outputs: Vec<Axis>, nl: usize) -> Self {
         let (ni, no) = (inputs.len(), outputs.len());
-        let (gff, gfy, gyy) = SUMS.with_borrow_mut(|(c, r)| {
+        let single = usize::from(ni == 1);
+        let (gff, gff1, gfy, gyy) = SUMS.with_borrow_mut(|(c, r)| {
             (
-                zeroed(c, nl * ni * ni),
+                zeroed(c, nl * ni * ni * (1 - single)),
+                zeroed(r, nl * single),
                 zeroed(c, nl * ni * no),
                 zeroed(r, nl * no),
             )
         });
         Accumulator {
             gff,
+            gff1,
             gfy,
             gyy,
             inputs,
@@ -893,6 +905,9 @@ impl Accumulator {
     /// [`Accumulator::add`], so both give the same sums bit for bit.
     fn add_inputs(&mut self, fs: &[Vec<Complex64>]) {
         let (ni, nl) = (self.inputs.len(), self.nl);
+        for (g, x) in self.gff1.iter_mut().zip(&fs[0][1..]) {
+            *g += (x.conj() * x).re;
+        }
         for (a, g) in self.gff.chunks_exact_mut(nl.max(1)).enumerate() {
             let (fi, fj) = (&fs[a / ni][1..=nl], &fs[a % ni][1..=nl]);
             for ((g, x), y) in g.iter_mut().zip(fi).zip(fj) {
@@ -921,20 +936,20 @@ impl Accumulator {
         let gyy = &mut self.gyy[o * nl..][..nl];
         if ni == 1 && o == 0 && !inputs_added {
             // the common case in one pass over the lines, the force's auto spectrum too
-            let (f, gfy, gff) = (&fs[0][1..=nl], &mut self.gfy[..nl], &mut self.gff[..nl]);
+            let (f, gfy, gff) = (&fs[0][1..=nl], &mut self.gfy[..nl], &mut self.gff1[..nl]);
             let lines = gfy.iter_mut().zip(gyy).zip(gff).zip(f).zip(y);
             match scale {
                 Some(s) => {
                     for (((((g, q), a), x), &y), s) in lines.zip(s) {
                         let y = y * s;
-                        *a += x.conj() * x;
+                        *a += (x.conj() * x).re;
                         *g += x.conj() * y;
                         *q += y.norm_sqr();
                     }
                 }
                 None => {
                     for ((((g, q), a), x), y) in lines {
-                        *a += x.conj() * x;
+                        *a += (x.conj() * x).re;
                         *g += x.conj() * y;
                         *q += y.norm_sqr();
                     }
@@ -1005,6 +1020,9 @@ impl Accumulator {
                 c.gff.push(part);
             }
         }
+        for (c, part) in chunks.iter_mut().zip(self.gff1.chunks_mut(LINE_CHUNK)) {
+            c.gff1 = part;
+        }
         for row in self.gfy.chunks_mut(nl) {
             for (c, part) in chunks.iter_mut().zip(row.chunks_mut(LINE_CHUNK)) {
                 c.gfy.push(part);
@@ -1020,7 +1038,7 @@ impl Accumulator {
             .enumerate()
             .for_each(|(c, mut chunk)| {
                 let k0 = 1 + c * LINE_CHUNK;
-                let k = k0..k0 + chunk.gff.first().map_or(0, |g| g.len());
+                let k = k0..k0 + LINE_CHUNK.min(nl - (k0 - 1));
                 for s in batch {
                     chunk.add(s, ni, no, k.clone());
                 }
@@ -1040,7 +1058,7 @@ impl Accumulator {
         let raw = |k: usize| -> f64 {
             if ni == 1 {
                 // (a sum of one term is that term)
-                self.gff[k].re
+                self.gff1[k]
             } else {
                 (0..ni).map(|i| self.gff[self.at(i * ni + i, k)].re).sum()
             }
@@ -1053,7 +1071,11 @@ impl Accumulator {
         // linear chirp's band into the anti-alias filter's noise (99.8 -> 94 % vs truth).
         // The smoothed lines are computed where they are looked at (no buffer of them).
         if smooth {
-            let s = OctaveSmoother::new((0..self.nl).map(raw), 1.0 / 12.0);
+            let s = if ni == 1 {
+                OctaveSmoother::new(self.gff1[..self.nl].iter().copied(), 1.0 / 12.0)
+            } else {
+                OctaveSmoother::new((0..self.nl).map(raw), 1.0 / 12.0)
+            };
             band_around_peak(self.nl, |k| s.at(k + 1), lim)
         } else {
             band_around_peak(self.nl, raw, lim)
@@ -1071,18 +1093,22 @@ impl Accumulator {
         }
         if ni == 1 && est == Estimator::H1 {
             // the usual case in straight-line code (the compiler vectorises it)
-            let gff = &self.gff[..nl];
-            let singular = gff.iter().filter(|g| g.re <= 0.0).count() * no;
+            let gff = &self.gff1[..nl];
+            let singular = gff.iter().filter(|&&g| g <= 0.0).count() * no;
             let chans = self
                 .outputs
                 .iter()
                 .enumerate()
                 .map(|(o, &out)| {
                     let (gyy, gfy) = (&self.gyy[o * nl..][..nl], &self.gfy[o * nl..][..nl]);
-                    // written once each (no zeroed buffers first)
-                    let (h, coh): (Vec<Complex64>, Vec<f64>) = (gff.iter().zip(gyy).zip(gfy))
-                        .map(|((g, &gyy), &gfy)| h1_line(g.re, gfy, gyy))
-                        .unzip();
+                    // written once each (no zeroed buffers first), each in a loop of its
+                    // own of known length (the compiler vectorises the divisions)
+                    let h = (gff.iter().zip(gfy))
+                        .map(|(&g, &gfy)| h1_line(g, gfy, 0.0).0)
+                        .collect();
+                    let coh = (gff.iter().zip(gyy).zip(gfy))
+                        .map(|((&g, &gyy), &gfy)| h1_line(g, gfy, gyy).1)
+                        .collect();
                     FrfChannel {
                         channel: Channel::new(out, self.inputs[0]),
                         h,
@@ -1103,9 +1129,9 @@ impl Accumulator {
                     let (gyy, gfy) = (&self.gyy[o * nl..][..nl], &self.gfy[o * nl..][..nl]);
                     let mut h = Vec::with_capacity(nl);
                     let mut coh = Vec::with_capacity(nl);
-                    for ((g, &gyy), &gfy) in self.gff[..nl].iter().zip(gyy).zip(gfy) {
-                        let (hk, ck) = siso_line(est, g.re, gfy, gyy);
-                        singular += usize::from(g.re <= 0.0);
+                    for ((&g, &gyy), &gfy) in self.gff1[..nl].iter().zip(gyy).zip(gfy) {
+                        let (hk, ck) = siso_line(est, g, gfy, gyy);
+                        singular += usize::from(g <= 0.0);
                         h.push(hk);
                         coh.push(ck);
                     }
@@ -1171,10 +1197,18 @@ impl Accumulator {
 /// values `p(0..n)` (the last of equal ones) where they stay at least `lim` times it;
 /// `None` when there are none or the largest is not positive.
 fn band_around_peak(n: usize, p: impl Fn(usize) -> f64, lim: f64) -> Option<(usize, usize)> {
-    let (kmax, pmax) = (0..n)
-        .map(&p)
-        .enumerate()
-        .max_by(|a, b| a.1.total_cmp(&b.1))?;
+    if n == 0 {
+        return None;
+    }
+    // the largest as `Iterator::max_by` by `total_cmp` finds it (a later equal one
+    // wins), in a loop that keeps the running maximum in registers
+    let (mut kmax, mut pmax) = (0, p(0));
+    for k in 1..n {
+        let v = p(k);
+        if v.total_cmp(&pmax) != std::cmp::Ordering::Less {
+            (kmax, pmax) = (k, v);
+        }
+    }
     if pmax <= 0.0 {
         return None;
     }
@@ -1201,12 +1235,12 @@ struct OctaveSmoother {
 
 impl OctaveSmoother {
     fn new(v: impl ExactSizeIterator<Item = f64>, octaves: f64) -> Self {
-        let mut pre = Vec::with_capacity(v.len() + 1);
+        // (written into place: the running sum stays in a register)
+        let mut pre = vec![0.0; v.len() + 1];
         let mut last = 0.0;
-        pre.push(last);
-        for x in v {
+        for (p, x) in pre[1..].iter_mut().zip(v) {
             last += x;
-            pre.push(last);
+            *p = last;
         }
         OctaveSmoother {
             r: 2f64.powf(octaves),
@@ -1284,6 +1318,8 @@ const LINE_CHUNK: usize = 2048;
 #[derive(Default)]
 struct LineChunk<'a> {
     gff: Vec<&'a mut [Complex64]>,
+    /// The lines of [`Accumulator`]'s `gff1` (empty for several inputs).
+    gff1: &'a mut [f64],
     gfy: Vec<&'a mut [Complex64]>,
     gyy: Vec<&'a mut [f64]>,
 }
@@ -1291,6 +1327,11 @@ struct LineChunk<'a> {
 impl LineChunk<'_> {
     /// Adds the lines `k` (spectrum indices, line k at index k) of one segment's spectra.
     fn add(&mut self, s: &Spectra, ni: usize, no: usize, k: std::ops::Range<usize>) {
+        if let Some(f) = s.fs.first().filter(|_| !self.gff1.is_empty()) {
+            for (g, x) in self.gff1.iter_mut().zip(&f[k.clone()]) {
+                *g += (x.conj() * x).re;
+            }
+        }
         for (a, g) in self.gff.iter_mut().enumerate() {
             let (fi, fj) = (&s.fs[a / ni][k.clone()], &s.fs[a % ni][k.clone()]);
             for ((g, x), y) in g.iter_mut().zip(fi).zip(fj) {
@@ -2148,9 +2189,7 @@ mod tests {
                     })
                     .collect();
                 let mut acc = Accumulator::new(vec![Axis::X], vec![Axis::Y], n);
-                for (g, &r) in acc.gff.iter_mut().zip(&raw) {
-                    *g = Complex64::new(r, 0.0);
-                }
+                acc.gff1.copy_from_slice(&raw);
                 for smooth in [false, true] {
                     for lim in [0.01, 1e-4] {
                         assert_eq!(
