@@ -409,6 +409,13 @@ pub fn update_modes(
     )
 }
 
+/// Relative cost reduction a Levenberg–Marquardt step of [`update_modes_with`] must
+/// promise (linearised, least damped) to be tried, as in the output-error stage: a
+/// misfit of N points resolves a relative change of about 1/N (a thousand points: 1e-3),
+/// so 1e-7 stops a converged update at once instead of after twelve ever more damped
+/// tries, and moves no parameter by a noticeable fraction of its standard deviation.
+const MIN_PREDICTED_GAIN: f64 = 1e-7;
+
 /// Updates the modes `free` of `model` to fit `points` (Levenberg–Marquardt, projected
 /// on the bounds of `opts`).
 pub fn update_modes_with(
@@ -702,6 +709,7 @@ pub fn update_modes_with(
         it += 1;
         let (jtj, g) = normal(&m, &r);
         let mut improved = false;
+        let mut first_try = true;
         for _ in 0..12 {
             let mut a = jtj.clone();
             for d in 0..a.nrows() {
@@ -711,6 +719,15 @@ pub fn update_modes_with(
                 lambda *= 10.0;
                 continue;
             };
+            if std::mem::take(&mut first_try) {
+                // the linearised cost's reduction by the least damped step: below
+                // MIN_PREDICTED_GAIN of the cost, more damped steps promise less still
+                // (a converged update otherwise spends twelve ever more damped tries)
+                let pred = -(2.0 * g.dot(&step) + (&jtj * &step).dot(&step));
+                if pred < MIN_PREDICTED_GAIN * cost {
+                    break;
+                }
+            }
             let mut cand: Vec<f64> = theta.iter().zip(step.iter()).map(|(t, s)| t + s).collect();
             clamp(&mut cand);
             let (rc, mc) = residuals(&cand);
