@@ -989,25 +989,16 @@ impl Default for OeOptions {
     }
 }
 
-/// Refines the modes `free` of `start` on `records` by output error (see the module
-/// docs). Modes keep their order; numerators of channels the records do not excite or
-/// measure keep their starting values.
-pub fn refine(
-    start: &ModalModel,
+/// The problem of [`refine`] (records prepared, outputs, priors) and where it starts: θ
+/// (ln ω and ln ζ of every free mode, then every record's force noise floors, 0), the
+/// number of parameters fitted (without the floors unless [`OeOptions::force_noise`]) and
+/// the start of the records not fitted \[s\].
+fn setup<'a>(
+    start: &'a ModalModel,
     free: &[usize],
     records: &[TimeSeries],
-    opts: OeOptions,
-) -> Result<OeResult> {
-    if free.is_empty() || records.is_empty() {
-        return Ok(OeResult {
-            model: start.clone(),
-            rel_rms_before: 0.0,
-            rel_rms_after: 0.0,
-            iterations: 0,
-            skipped_s: 0.0,
-            force_noise: Vec::new(),
-        });
-    }
+    opts: &OeOptions,
+) -> Result<(Problem<'a>, Vec<f64>, usize, f64)> {
     let mut held = start.clone();
     for c in &mut held.channels {
         for &k in free {
@@ -1147,6 +1138,30 @@ pub fn refine(
         .collect();
     theta.resize(np, 0.0);
     let np = if opts.force_noise { np } else { n_modes };
+    Ok((prob, theta, np, skipped_s))
+}
+
+/// Refines the modes `free` of `start` on `records` by output error (see the module
+/// docs). Modes keep their order; numerators of channels the records do not excite or
+/// measure keep their starting values.
+pub fn refine(
+    start: &ModalModel,
+    free: &[usize],
+    records: &[TimeSeries],
+    opts: OeOptions,
+) -> Result<OeResult> {
+    if free.is_empty() || records.is_empty() {
+        return Ok(OeResult {
+            model: start.clone(),
+            rel_rms_before: 0.0,
+            rel_rms_after: 0.0,
+            iterations: 0,
+            skipped_s: 0.0,
+            force_noise: Vec::new(),
+        });
+    }
+    let (mut prob, mut theta, np, skipped_s) = setup(start, free, records, &opts)?;
+    let n_modes = 2 * free.len();
     let theta0 = theta.clone();
     let (first, mut parts) = prob.eval_with_parts(&theta);
     let rel_before = (first.data_ss / first.n_data.max(1) as f64).sqrt();
@@ -1300,6 +1315,47 @@ mod tests {
             ..TimeSeries::default()
         };
         (truth, ts)
+    }
+
+    /// The Gauss–Newton gradient `Jᵀr` of [`Problem::gauss_newton`] is half the slope of
+    /// the cost (central differences of the evaluated cost) in every parameter: ln ω,
+    /// ln ζ of the free mode and the force's noise floor. With no numerator prior the
+    /// numerators are at their least-squares optimum, where Kaufman's gradient is exact.
+    #[test]
+    fn gauss_newton_gradient_is_the_slope_of_the_cost() {
+        let (truth, mut ts) = light_mode_record();
+        let mut lcg = crate::test_util::Lcg(7);
+        if let Some(y) = ts.response[0].as_mut() {
+            let s = (y.iter().map(|v| v * v).sum::<f64>() / y.len() as f64).sqrt();
+            y.iter_mut().for_each(|v| *v += 0.1 * s * lcg.uniform());
+        }
+        let mut start = truth.clone();
+        start.modes[0].wn *= 1.003;
+        start.modes[0].zeta *= 1.2;
+        let opts = OeOptions::default();
+        let (mut prob, mut theta, np, _) =
+            setup(&start, &[0], std::slice::from_ref(&ts), &opts).unwrap();
+        assert_eq!(np, 3, "ln ω, ln ζ and one noise floor");
+        theta[2] = 0.02;
+        let (first, _) = prob.eval_with_parts(&theta);
+        prob.prior_scale = (first.data_ss / first.n_data as f64).sqrt();
+        let (cur, parts) = prob.eval_with_parts(&theta);
+        let (jtj, g) = prob.gauss_newton(&theta, &parts, &cur, np);
+        for i in 0..np {
+            let h = 1e-6;
+            let cost_at = |d: f64| {
+                let mut t = theta.clone();
+                t[i] += d;
+                prob.eval_with_parts(&t).0.cost
+            };
+            let slope = (cost_at(h) - cost_at(-h)) / (2.0 * h);
+            assert!(
+                (2.0 * g[i] - slope).abs() <= 1e-4 * slope.abs(),
+                "parameter {i}: 2 Jᵀr = {} vs cost slope {slope}",
+                2.0 * g[i]
+            );
+            assert!(jtj[(i, i)] > 0.0);
+        }
     }
 
     /// A lightly damped mode simulated exactly (frequency domain, band-limited noise
