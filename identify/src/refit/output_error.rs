@@ -791,29 +791,29 @@ impl Problem<'_> {
                         .collect();
                     ds.push((i, demean(p.to_time(sp))));
                 }
-                // one pass: the Gram matrix of [columns | derivatives | target]
+                // one pass: the products of the derivatives with themselves, the columns
+                // and the target (the columns' own products are the normal equations')
                 let cols: Vec<(usize, &[f64])> = spec
                     .iter()
                     .enumerate()
                     .filter_map(|(a, sp)| self.column(&part.cols, *sp).map(|c| (a, c)))
                     .collect();
-                let mut vecs: Vec<&[f64]> = cols.iter().map(|(_, c)| *c).collect();
-                vecs.extend(ds.iter().map(|(_, d)| d.as_slice()));
-                vecs.push(y);
-                let gm = gram(&vecs);
                 let (na, nd) = (cols.len(), ds.len());
+                let mut vecs: Vec<&[f64]> = ds.iter().map(|(_, d)| d.as_slice()).collect();
+                vecs.extend(cols.iter().map(|(_, c)| *c));
+                vecs.push(y);
+                let gm = gram(&vecs, nd);
                 for (x, (i, _)) in ds.iter().enumerate() {
-                    let gx = na + x;
                     for (q, (a, _)) in cols.iter().enumerate() {
-                        atd[(*a, *i)] += gm[(q, gx)];
+                        atd[(*a, *i)] += gm[(x, nd + q)];
                     }
                     for (x2, (i2, _)) in ds.iter().enumerate() {
-                        dd[(*i, *i2)] += gm[(gx, na + x2)];
+                        dd[(*i, *i2)] += gm[(x.min(x2), x.max(x2))];
                     }
                     // dᵀe = dᵀy − dᵀAβ
-                    let mut v = gm[(gx, na + nd)];
+                    let mut v = gm[(x, nd + na)];
                     for (q, (a, _)) in cols.iter().enumerate() {
-                        v -= gm[(q, gx)] * beta[*a];
+                        v -= gm[(x, nd + q)] * beta[*a];
                     }
                     de[*i] += v;
                 }
@@ -908,10 +908,11 @@ fn sumsq(r: &[f64]) -> f64 {
     dot(r, r)
 }
 
-/// Gram matrix `G[a][b] = vᵃ·vᵇ` of equally long vectors (the shortest length counts), in
-/// one pass over blocks that stay in the cache: the vectors are read once, not once per
-/// pair.
-fn gram(v: &[&[f64]]) -> DMatrix<f64> {
+/// The products `G[a][b] = vᵃ·vᵇ` of the first `rows` vectors with every vector from
+/// themselves on (`a < rows`, `b ≥ a`; the rest of `G` is zero), of equally long vectors
+/// (the shortest length counts), in one pass over blocks that stay in the cache: each
+/// vector is read once, not once per product.
+fn gram(v: &[&[f64]], rows: usize) -> DMatrix<f64> {
     const BLOCK: usize = 1024;
     let k = v.len();
     let n = v.iter().map(|x| x.len()).min().unwrap_or(0);
@@ -919,18 +920,13 @@ fn gram(v: &[&[f64]]) -> DMatrix<f64> {
     let mut start = 0;
     while start < n {
         let end = (start + BLOCK).min(n);
-        for a in 0..k {
+        for a in 0..rows.min(k) {
             let va = &v[a][start..end];
             for b in a..k {
                 g[(a, b)] += dot(va, &v[b][start..end]);
             }
         }
         start = end;
-    }
-    for a in 0..k {
-        for b in 0..a {
-            g[(a, b)] = g[(b, a)];
-        }
     }
     g
 }
@@ -1192,6 +1188,7 @@ pub fn refine(
             *v = v.clamp(0.0, 0.9);
         }
     };
+    let mut last_gain: Option<f64> = None;
     for _ in 0..opts.max_iter {
         iterations += 1;
         let (jtj, g) = prob.gauss_newton(&theta, &parts, &cur, np);
@@ -1232,6 +1229,14 @@ pub fn refine(
                 cost = c;
                 lambda = (lambda / 3.0).max(1e-9);
                 improved = rel_gain > 1e-10;
+                // converging geometrically (the gains shrink by a steady factor): when
+                // the next gain, extrapolated, is below MIN_PREDICTED_GAIN, the next
+                // Jacobian would only confirm it
+                if let Some(prev) = last_gain.replace(rel_gain) {
+                    if rel_gain < prev && rel_gain * rel_gain / prev < MIN_PREDICTED_GAIN {
+                        improved = false;
+                    }
+                }
                 break;
             }
             lambda *= 4.0;
