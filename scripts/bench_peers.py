@@ -280,6 +280,18 @@ class Table:
             self.rows.append((case, tool, f"failed: {msg}", "-", "-"))
         print(" | ".join(self.rows[-1]), file=sys.stderr, flush=True)
 
+    def slower(self):
+        """The peer rows faster than mtwin's base row of their case, as text."""
+        base_fit = {}
+        out = []
+        for case, tool, fit, _, speed in self.rows:
+            if speed == "(base)":
+                base_fit[case] = fit
+            elif speed.endswith("x") and speed[0].isdigit() and float(speed[:-1]) < 1:
+                out.append(f"{case.split('.')[0]}, {tool.split(' (')[0]} ({speed}; fit "
+                           f"{fit} % vs mtwin's {base_fit.get(case, '?')} %)")
+        return "; ".join(out) if out else "none"
+
     def markdown(self):
         out = ["| case | tool (what it was given) | fit % | time ms | speed-up of mtwin "
                "(peer time / mtwin time) |",
@@ -643,9 +655,7 @@ def main():
         "tune mtwin; h: a real third-party impact test (shared/data/pyfrf_impact_hammer), "
         "whose reference is the per-hit H1 of its own raw data (no analytic truth). mtwin "
         "chooses band, order and weighting itself; scikit-rf gets the judged band.",
-        "* Where mtwin is slower: f, vector_fit given the true order (less accurate); h, "
-        "auto_fit (less accurate against the raw H1); g sweep, auto_fit at the same fit, in "
-        "runs before the sweep path's speed-up (2026-11-25: 5.2 s vs 1.8 s). "
+        "* Where mtwin is slower in this run (speed-up below 1x): " + tab.slower() + ". "
         "In g and h mtwin fits every response channel of the record (g: x, y, z), "
         "scikit-rf only the judged one.",
         "* a, d, all cores: the same call inside a rayon pool of `available_parallelism()` "
