@@ -112,11 +112,7 @@ pub fn simulate_as_measured_lti(
     ts: &crate::timeseries::TimeSeries,
 ) -> crate::Result<[Vec<f64>; 3]> {
     let pose = ts.position_at(0);
-    let still = (0..3).all(|a| {
-        ts.position[a]
-            .as_ref()
-            .is_none_or(|v| v.iter().all(|&p| p == pose[a]))
-    });
+    let still = stands_still(ts);
     if !still || !twin.extensions.cubic.is_empty() || ts.len() < 2 {
         return simulate_as_measured(twin, ts);
     }
@@ -126,6 +122,16 @@ pub fn simulate_as_measured_lti(
     let y = crate::simulate::band_limited_lti(&model, &f, ts.dt);
     let y = delay_and_disturb(twin, y, ts.t0, ts.dt);
     Ok(as_measured(&y, ts))
+}
+
+/// Whether the record's axes stay at their first position throughout.
+fn stands_still(ts: &crate::timeseries::TimeSeries) -> bool {
+    let pose = ts.position_at(0);
+    (0..3).all(|a| {
+        ts.position[a]
+            .as_ref()
+            .is_none_or(|v| v.iter().all(|&p| p == pose[a]))
+    })
 }
 
 /// [`simulate_as_measured_lti`] of `after` for a record whose simulation by `before` is
@@ -142,11 +148,7 @@ pub fn resimulate_as_measured_lti(
     sim_before: &[Vec<f64>; 3],
 ) -> crate::Result<[Vec<f64>; 3]> {
     let pose = ts.position_at(0);
-    let still = (0..3).all(|a| {
-        ts.position[a]
-            .as_ref()
-            .is_none_or(|v| v.iter().all(|&p| p == pose[a]))
-    });
+    let still = stands_still(ts);
     let n = ts.len();
     let same_shape = before.extensions == after.extensions
         && before.extensions.cubic.is_empty()

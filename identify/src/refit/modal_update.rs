@@ -461,16 +461,22 @@ pub fn update_modes_with(
         })
         .collect();
     let per = 2 + 2 * lay.n_ch;
-    let mut theta0 = vec![0.0; lay.n()];
-    for (j, &k) in lay.free.iter().enumerate() {
-        let o = j * per;
-        theta0[o] = model.modes[k].wn.ln();
-        theta0[o + 1] = model.modes[k].zeta.max(1e-6).ln();
-        for c in 0..lay.n_ch {
-            theta0[o + 2 + 2 * c] = model.channels[c].num[k].b0 / scale[j];
-            theta0[o + 3 + 2 * c] = model.channels[c].num[k].b1 * model.modes[k].wn / scale[j];
+    // θ of a model with the layout of `model` (its free modes' values): the inverse of
+    // `unpack` (numerators scaled by `scale` and, for b1, by `model`'s ω)
+    let pack = |src: &ModalModel| -> Vec<f64> {
+        let mut t = vec![0.0; lay.n()];
+        for (j, &k) in lay.free.iter().enumerate() {
+            let o = j * per;
+            t[o] = src.modes[k].wn.ln();
+            t[o + 1] = src.modes[k].zeta.max(1e-6).ln();
+            for c in 0..lay.n_ch {
+                t[o + 2 + 2 * c] = src.channels[c].num[k].b0 / scale[j];
+                t[o + 3 + 2 * c] = src.channels[c].num[k].b1 * model.modes[k].wn / scale[j];
+            }
         }
-    }
+        t
+    };
+    let theta0 = pack(model);
     let prior_sd: Vec<f64> = (0..lay.n())
         .map(|i| match i % per {
             0 => prior.ln_wn,
@@ -684,15 +690,7 @@ pub fn update_modes_with(
     if let Some(st) = opts.start.as_ref().filter(|st| {
         st.modes.len() == model.modes.len() && st.channels.len() == model.channels.len()
     }) {
-        for (j, &k) in lay.free.iter().enumerate() {
-            let o = j * per;
-            theta[o] = st.modes[k].wn.ln();
-            theta[o + 1] = st.modes[k].zeta.max(1e-6).ln();
-            for c in 0..lay.n_ch {
-                theta[o + 2 + 2 * c] = st.channels[c].num[k].b0 / scale[j];
-                theta[o + 3 + 2 * c] = st.channels[c].num[k].b1 * model.modes[k].wn / scale[j];
-            }
-        }
+        theta = pack(st);
         clamp(&mut theta);
         let (rs, ms) = residuals(&theta);
         // a start worse than the model updated (or invalid) is not taken

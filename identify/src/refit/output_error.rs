@@ -576,24 +576,9 @@ impl Problem<'_> {
                     aty[a] += k2 * iv[a] * b0[a];
                 }
             }
-            // column scaling, then a least-squares solve robust to unused columns
-            let d: Vec<f64> = (0..np)
-                .map(|a| {
-                    let v = ata[(a, a)];
-                    if v > 0.0 {
-                        1.0 / v.sqrt()
-                    } else {
-                        0.0
-                    }
-                })
-                .collect();
-            let scaled = DMatrix::from_fn(np, np, |a, b| ata[(a, b)] * d[a] * d[b]);
-            let rhs = DVector::from_fn(np, |a, _| aty[a] * d[a]);
-            let sol = scaled
-                .svd(true, true)
-                .solve(&rhs, 1e-12)
-                .unwrap_or_else(|_| DVector::zeros(np));
-            let bo = DVector::from_fn(np, |a, _| sol[a] * d[a]);
+            let bo = solve_normal(&ata, &DMatrix::from_column_slice(np, 1, aty.as_slice()))
+                .column(0)
+                .into_owned();
             for (ri, part) in per_rec.iter().enumerate() {
                 let Some(y) = self.target_of(ri, part.targets, oi) else {
                     continue;
@@ -825,29 +810,14 @@ impl Problem<'_> {
                     ata[(a, a)] += k2 * iv[a];
                 }
             }
-            let dsc: Vec<f64> = (0..nc)
-                .map(|a| {
-                    let v = ata[(a, a)];
-                    if v > 0.0 {
-                        1.0 / v.sqrt()
-                    } else {
-                        0.0
-                    }
-                })
-                .collect();
-            let scaled = DMatrix::from_fn(nc, nc, |a, b| ata[(a, b)] * dsc[a] * dsc[b]);
-            let rhs = DMatrix::from_fn(nc, np, |a, i| atd[(a, i)] * dsc[a]);
-            let x = scaled
-                .svd(true, true)
-                .solve(&rhs, 1e-12)
-                .unwrap_or_else(|_| DMatrix::zeros(nc, np));
+            let x = solve_normal(&ata, &atd);
             // JᵢᵀJₖ = w² (dᵢᵀdₖ − (Aᵀdᵢ)ᵀ N⁺ Aᵀdₖ), Jᵢᵀr = −w² dᵢᵀe
             let w2 = w * w;
             for i in 0..np {
                 for k2 in 0..np {
                     let mut v = dd[(i, k2)];
                     for a in 0..nc {
-                        v -= atd[(a, i)] * x[(a, k2)] * dsc[a];
+                        v -= atd[(a, i)] * x[(a, k2)];
                     }
                     jtj[(i, k2)] += w2 * v;
                 }
@@ -896,6 +866,30 @@ impl Problem<'_> {
         }
         m
     }
+}
+
+/// The least-squares solution `X` of the normal equations `N X = B`, robust to unused
+/// columns: scaled to a unit diagonal, solved by SVD (singular values below 1e-12 of the
+/// largest dropped), scaled back; zero where the solve fails.
+fn solve_normal(n: &DMatrix<f64>, b: &DMatrix<f64>) -> DMatrix<f64> {
+    let k = n.nrows();
+    let d: Vec<f64> = (0..k)
+        .map(|a| {
+            let v = n[(a, a)];
+            if v > 0.0 {
+                1.0 / v.sqrt()
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let scaled = DMatrix::from_fn(k, k, |a, c| n[(a, c)] * d[a] * d[c]);
+    let rhs = DMatrix::from_fn(k, b.ncols(), |a, i| b[(a, i)] * d[a]);
+    let y = scaled
+        .svd(true, true)
+        .solve(&rhs, 1e-12)
+        .unwrap_or_else(|_| DMatrix::zeros(k, b.ncols()));
+    DMatrix::from_fn(k, b.ncols(), |a, i| y[(a, i)] * d[a])
 }
 
 fn dot(a: &[f64], b: &[f64]) -> f64 {
