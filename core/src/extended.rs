@@ -172,26 +172,28 @@ pub fn resimulate_as_measured_lti(
                     .any(|(a, b)| a.num[k] != b.num[k])
         })
         .collect();
-    let part = |m: &ModalModel| ModalModel {
-        modes: changed.iter().map(|&k| m.modes[k]).collect(),
-        channels: m
-            .channels
-            .iter()
-            .map(|c| crate::model::ChannelModel {
-                num: changed.iter().map(|&k| c.num[k]).collect(),
-                ..c.clone()
+    // one model whose response is new minus old: the changed modes of both, the old
+    // ones with their numerators negated, the feedthroughs' difference
+    let diff = ModalModel {
+        modes: (changed.iter().map(|&k| new.modes[k]))
+            .chain(changed.iter().map(|&k| old.modes[k]))
+            .collect(),
+        channels: (new.channels.iter().zip(&old.channels))
+            .map(|(cn, co)| crate::model::ChannelModel {
+                channel: cn.channel,
+                num: (changed.iter().map(|&k| cn.num[k]))
+                    .chain(changed.iter().map(|&k| crate::model::ModeNum {
+                        b0: -co.num[k].b0,
+                        b1: -co.num[k].b1,
+                    }))
+                    .collect(),
+                d: cn.d - co.d,
             })
             .collect(),
     };
     check_force_columns(&after.channels, ts)?;
     let f = crate::simulate::force_rows(ts);
-    let y_new = crate::simulate::band_limited_lti(&part(&new), &f, ts.dt);
-    let y_old = crate::simulate::band_limited_lti(&part(&old), &f, ts.dt);
-    let mut d: Vec<[f64; 3]> = y_new
-        .iter()
-        .zip(&y_old)
-        .map(|(a, b)| [a[0] - b[0], a[1] - b[1], a[2] - b[2]])
-        .collect();
+    let mut d = crate::simulate::band_limited_lti(&diff, &f, ts.dt);
     if let Some(tau) = after.extensions.delay_s {
         d = delay(&d, tau / ts.dt);
     }
