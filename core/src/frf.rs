@@ -91,71 +91,51 @@ pub fn weighted_rms(h: &[Complex64], w: &[f64]) -> Option<f64> {
 /// `-inf` when the reference is constant (to rounding). The sums are formed relative to
 /// the largest value, so receptances near 1e±300 neither overflow nor underflow.
 pub fn fit_percent(truth: &[Complex64], model: &[Complex64]) -> f64 {
+    fit_percent_of(truth, model)
+}
+
+/// [`fit_percent`] for real signals (time responses): each sample taken as a complex
+/// value with zero imaginary part as it is read, without complex copies of the signals.
+pub fn fit_percent_real(truth: &[f64], model: &[f64]) -> f64 {
+    fit_percent_of(truth, model)
+}
+
+/// [`fit_percent`] of values of any type that converts to a complex number.
+fn fit_percent_of<T: Copy + Into<Complex64>>(truth: &[T], model: &[T]) -> f64 {
     assert_eq!(truth.len(), model.len(), "fit_percent: length mismatch");
+    let c = |v: &T| -> Complex64 { (*v).into() };
     let n = truth.len().max(1) as f64;
     let top = truth
         .iter()
         .chain(model)
+        .map(c)
         .fold(0.0f64, |m, v| m.max(v.re.abs()).max(v.im.abs()));
     if top == 0.0 {
         return f64::NEG_INFINITY;
     }
     let scale = if top.is_finite() { 1.0 / top } else { 1.0 };
     // two-pass mean: exact to rounding, so a constant reference is recognised
-    let mean0 = truth.iter().map(|a| a * scale).sum::<Complex64>() / n;
-    let mean = mean0 + truth.iter().map(|a| a * scale - mean0).sum::<Complex64>() / n;
+    let mean0 = truth.iter().map(|a| c(a) * scale).sum::<Complex64>() / n;
+    let mean = mean0
+        + truth
+            .iter()
+            .map(|a| c(a) * scale - mean0)
+            .sum::<Complex64>()
+            / n;
     let num: f64 = truth
         .iter()
         .zip(model)
-        .map(|(a, b)| ((a - b) * scale).norm_sqr())
+        .map(|(a, b)| ((c(a) - c(b)) * scale).norm_sqr())
         .sum::<f64>()
         .sqrt();
     let den: f64 = truth
         .iter()
-        .map(|a| (a * scale - mean).norm_sqr())
+        .map(|a| (c(a) * scale - mean).norm_sqr())
         .sum::<f64>()
         .sqrt();
     let size: f64 = truth
         .iter()
-        .map(|a| (a * scale).norm_sqr())
-        .sum::<f64>()
-        .sqrt();
-    if den == 0.0 || den <= 1e-12 * size {
-        return f64::NEG_INFINITY;
-    }
-    (1.0 - num / den) * 100.0
-}
-
-/// [`fit_percent`] for real signals (time responses): the same sums, term by term (the
-/// same number as `fit_percent` of the signals as complex values with zero imaginary
-/// part), without the complex copies.
-pub fn fit_percent_real(truth: &[f64], model: &[f64]) -> f64 {
-    assert_eq!(truth.len(), model.len(), "fit_percent: length mismatch");
-    let n = truth.len().max(1) as f64;
-    let top = truth
-        .iter()
-        .chain(model)
-        .fold(0.0f64, |m, v| m.max(v.abs()));
-    if top == 0.0 {
-        return f64::NEG_INFINITY;
-    }
-    let scale = if top.is_finite() { 1.0 / top } else { 1.0 };
-    let mean0 = truth.iter().map(|a| a * scale).sum::<f64>() / n;
-    let mean = mean0 + truth.iter().map(|a| a * scale - mean0).sum::<f64>() / n;
-    let num: f64 = truth
-        .iter()
-        .zip(model)
-        .map(|(a, b)| ((a - b) * scale).powi(2))
-        .sum::<f64>()
-        .sqrt();
-    let den: f64 = truth
-        .iter()
-        .map(|a| (a * scale - mean).powi(2))
-        .sum::<f64>()
-        .sqrt();
-    let size: f64 = truth
-        .iter()
-        .map(|a| (a * scale).powi(2))
+        .map(|a| (c(a) * scale).norm_sqr())
         .sum::<f64>()
         .sqrt();
     if den == 0.0 || den <= 1e-12 * size {
