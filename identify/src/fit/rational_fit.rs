@@ -274,6 +274,51 @@ pub fn fit_frf(frf: &Frf, opts: &FitOptions) -> Result<FitResult> {
     })
 }
 
+/// [`fit_frf`] with the poles taken from the channels in `steer` alone: the other
+/// channels of `frf` get their numerators and residual with those poles held (the
+/// linear part of the fit, same weights). A weak cross channel, coherent only in part of
+/// the band, then cannot pull the common poles towards its noise. With no steering
+/// channel among `frf`'s, all of them, or a custom weighting (given per channel of the
+/// whole FRF), this is [`fit_frf`].
+pub fn fit_frf_steered(frf: &Frf, opts: &FitOptions, steer: &[Channel]) -> Result<FitResult> {
+    let n_steer = (frf.channels.iter())
+        .filter(|c| steer.contains(&c.channel))
+        .count();
+    if n_steer == 0
+        || n_steer == frf.channels.len()
+        || matches!(opts.weighting, Weighting::Custom(_))
+    {
+        return fit_frf(frf, opts);
+    }
+    let mut sub = frf.clone();
+    sub.channels.retain(|c| steer.contains(&c.channel));
+    let mut r = fit_frf(&sub, opts)?;
+    let prep = Prepared::new(frf, opts)?;
+    let sol = varpro::solve_linear(&prep, &prep.scale_modes(&r.model.modes)).ok_or_else(|| {
+        Error::Numerical(
+            "the numerator least squares is singular: too few usable lines for the order".into(),
+        )
+    })?;
+    r.model = finish(&prep, &sol)?;
+    r.fit_pct = fit_percentages(&prep, &r.model);
+    let held: Vec<String> = (frf.channels.iter())
+        .filter(|c| !steer.contains(&c.channel))
+        .map(|c| c.channel.to_string())
+        .collect();
+    let _ = writeln!(
+        r.report,
+        "poles from {} only; {} fitted with them held: {}",
+        crate::axis::count(n_steer, "channel"),
+        held.join(", "),
+        r.fit_pct
+            .iter()
+            .map(|(c, f)| format!("{c} {f:.3}%"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    Ok(r)
+}
+
 /// Refits `frf` starting from `initial` (same number of modes): Levenberg–Marquardt on
 /// the modes with the numerators of every channel of `frf` solved anew, minimising
 /// `Σ |W (H − F)|²` with `weights[c][k]` the amplitude weight of channel `c` at line `k`
