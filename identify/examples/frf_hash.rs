@@ -147,14 +147,8 @@ fn main() {
                     nfft,
                     ..FrfOptions::default()
                 };
-                let fp = pool
-                    .install(|| estimate_frf(recs, &opts))
-                    .map(|e| fingerprint(&e));
-                match &fp {
-                    Ok(f) => println!("{name:18} nfft {nfft:?} threads {threads}: {f:016x}"),
-                    Err(e) => println!("{name:18} nfft {nfft:?} threads {threads}: error {e}"),
-                }
-                fp.map_err(|e| e.to_string()).hash(&mut all);
+                let label = format!("{name:18} nfft {nfft:?} threads {threads}");
+                hash_one(&label, pool, recs, &opts, &mut all);
             }
         }
         for estimator in [Estimator::H2, Estimator::Hv] {
@@ -164,14 +158,8 @@ fn main() {
                 fmax_hz: Some(1500.0),
                 ..FrfOptions::default()
             };
-            let fp = one
-                .install(|| estimate_frf(recs, &opts))
-                .map(|e| fingerprint(&e));
-            match &fp {
-                Ok(f) => println!("{name:18} {estimator:?} nfft 4096 fmax 1500: {f:016x}"),
-                Err(e) => println!("{name:18} {estimator:?} nfft 4096 fmax 1500: error {e}"),
-            }
-            fp.map_err(|e| e.to_string()).hash(&mut all);
+            let label = format!("{name:18} {estimator:?} nfft 4096 fmax 1500");
+            hash_one(&label, &one, recs, &opts, &mut all);
         }
     }
     // a NaN in a response: the error names its sample
@@ -188,4 +176,23 @@ fn main() {
         msg.hash(&mut all);
     }
     println!("all: {:016x}", all.finish());
+}
+
+/// Prints the fingerprint of `estimate_frf(recs, opts)` in `pool` after `label` and adds
+/// it (or the error's text) to `all`.
+fn hash_one(
+    label: &str,
+    pool: &rayon::ThreadPool,
+    recs: &[TimeSeries],
+    opts: &FrfOptions,
+    all: &mut std::collections::hash_map::DefaultHasher,
+) {
+    let fp = pool
+        .install(|| estimate_frf(recs, opts))
+        .map(|e| fingerprint(&e));
+    match &fp {
+        Ok(f) => println!("{label}: {f:016x}"),
+        Err(e) => println!("{label}: error {e}"),
+    }
+    fp.map_err(|e| e.to_string()).hash(all);
 }
