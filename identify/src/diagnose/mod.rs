@@ -527,7 +527,16 @@ pub fn diagnose(
                 .and_then(Value::as_f64)
                 .is_some_and(|r| r >= DISTURBANCE_PROVEN_STRENGTH);
         let need = if proven_tone { 0.0 } else { opts.min_gain_pct };
-        if explains && fit > fit_before + need && best.is_none_or(|b| fit > b.1) {
+        // a cause that acts in a band must not predict the held-out responses there worse
+        // than the twin (a whole-response gain elsewhere is then not its doing: a healthy
+        // milling record of the second generator got "cross coupling" for a 1.2-point
+        // whole-response gain while its band fell from 89.0 to 77.6 %)
+        let band_ok = band_fits
+            .last()
+            .copied()
+            .flatten()
+            .is_none_or(|(_, x, y)| y >= x);
+        if explains && band_ok && fit > fit_before + need && best.is_none_or(|b| fit > b.1) {
             best = Some((i, fit));
         }
     }
