@@ -124,6 +124,7 @@ def process_machine(machine: str) -> dict:
         "mode1_before_hz": m1.get("freq_before_hz"),
         "mode1_after_hz": m1.get("freq_after_hz"),
         "history": len(new.history),
+        "warnings": list(rep.get("warnings") or []),
         "guid": new.guid,
         "seconds": time.perf_counter() - t0,
         "pid": os.getpid(),
@@ -191,6 +192,10 @@ def table(rows: list) -> str:
         mode = "-" if r["mode1_before_hz"] is None else f"{r['mode1_before_hz']:.1f}->{r['mode1_after_hz']:.1f}"
         lines.append(f"{r['machine']:<12} {f(r['drift_fit_pct']):>11} {('yes' if r['updated'] else 'no'):>5} "
                      f"{f(r['fit_after_pct']):>11} {mode:>17} {r['history']:>4}  {r['guid']}")
+    # what the refit said the user must know (an incomplete update), once per machine
+    for r in rows:
+        for w in r.get("warnings") or []:
+            lines.append(f"{r['machine']}: {w}")
     return "\n".join(lines)
 
 

@@ -144,6 +144,10 @@ pub struct ModeChange {
     pub zeta_after: f64,
 }
 
+/// Simulated-response fit \[%\] below which an updated twin is reported as an incomplete
+/// refit ([`RefitReport::warnings`]).
+pub const REFIT_TARGET_PCT: f64 = 90.0;
+
 /// What a refit found and did.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RefitReport {
@@ -171,6 +175,10 @@ pub struct RefitReport {
     /// How mtwin's update was validated on held-out data (methods `modal` and `time`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub held_out: Option<HeldOut>,
+    /// What the user must know about the result (an update that leaves the simulated
+    /// response far from the measured one).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<String>,
     /// The operating spectra the refit used, for a report (not written to files).
     #[serde(skip)]
     pub spectra: Option<OperatingSpectra>,
@@ -943,6 +951,7 @@ pub fn refit(
         pose_weights: Vec::new(),
         output_error: None,
         held_out: None,
+        warnings: Vec::new(),
         spectra: Some(sp.clone()),
         responses: Some((traces_before.clone(), traces_before)),
     };
@@ -1188,6 +1197,25 @@ pub fn refit(
     report.updated = true;
     let (fit_after, traces_after, _) = time_fit_traces_after(twin, &out, records, &sims_before)?;
     report.fit_after_pct = fit_after;
+    if fit_after < REFIT_TARGET_PCT {
+        let kept: Vec<String> = (0..old.modes.len())
+            .filter(|k| report.modes.iter().all(|m| m.mode != *k))
+            .map(|k| format!("{} ({:.1} Hz)", k + 1, old.modes[k].freq_hz()))
+            .collect();
+        report.warnings.push(format!(
+            "REFIT INCOMPLETE: the updated twin reproduces the operating records at {fit_after:.2} % \
+             (before: {:.2} %; target {REFIT_TARGET_PCT:.0} %). The records did not pin down every \
+             change{}: refit again from longer records, at a fixed pose (the spectra of a record \
+             whose axes sweep the workspace mix the poses' modes), or re-identify the twin from \
+             an impact test",
+            report.drift_fit_pct,
+            if kept.is_empty() {
+                String::new()
+            } else {
+                format!("; modes kept as they were: {}", kept.join(", "))
+            }
+        ));
+    }
     if let Some((_, after)) = &mut report.responses {
         *after = traces_after;
     }

@@ -107,6 +107,7 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
             rep.fit_after_pct
         ));
     }
+    out.warnings(&rep.warnings);
     if let Some(oe) = &rep.output_error {
         out.say(format!(
             "  output-error stage: residual {:.2} % -> {:.2} % of the response RMS in {} \
