@@ -20,25 +20,33 @@ fn diagnose(twin: &Path, files: &[PathBuf], out: &Path) -> serde_json::Value {
         .expect("diagnosis json")
 }
 
+/// A healthy impact test at the centre (hammer along x and along y, 5 hits each, seeds
+/// `seed0` and `seed0 + 1`) in `dir` and its one-pose twin, identified with the defaults:
+/// (the impact files, the twin file).
+fn centre_twin(dir: &Path, machine: &Machine, seed0: u64) -> (Vec<PathBuf>, PathBuf) {
+    let setup = Setup::impact();
+    let mut files = Vec::new();
+    for (a, name) in [(0usize, "x"), (1, "y")] {
+        let p = dir.join(format!("imp_{name}.csv"));
+        impact_record(machine, &setup, CENTRE, a, 5, 2.0, seed0 + a as u64)
+            .write_csv(&p)
+            .expect("write");
+        files.push(p);
+    }
+    let twin = dir.join("twin.json");
+    let mut args = vec!["identify", "-q"];
+    args.extend(files.iter().map(|p| s(p)));
+    args.extend(["--out", s(&twin)]);
+    let o = mtwin(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    (files, twin)
+}
+
 #[test]
 fn lumped_one_pose_twin_diagnoses_healthy_disturbance_and_delay() {
     let dir = tmp();
     let machine = Machine::nominal();
-    let setup = Setup::impact();
-    let mut healthy = Vec::new();
-    for (a, name) in [(0usize, "x"), (1, "y")] {
-        let p = dir.path().join(format!("imp_{name}.csv"));
-        impact_record(&machine, &setup, CENTRE, a, 5, 2.0, 700 + a as u64)
-            .write_csv(&p)
-            .expect("write");
-        healthy.push(p);
-    }
-    let twin = dir.path().join("twin.json");
-    let mut args = vec!["identify", "-q"];
-    args.extend(healthy.iter().map(|p| s(p)));
-    args.extend(["--out", s(&twin)]);
-    let o = mtwin(&args);
-    assert!(o.status.success(), "{}", stderr(&o));
+    let (healthy, twin) = centre_twin(dir.path(), &machine, 700);
 
     // its own healthy hits: nothing to report
     let d = diagnose(&twin, &healthy, &dir.path().join("self"));
@@ -341,30 +349,9 @@ fn lumped_one_pose_twin_fits_the_truth_as_well_as_its_h1() {
 fn lumped_healthy_milling_names_no_cause_that_predicts_its_band_worse() {
     let dir = tmp();
     let machine = Machine::nominal();
-    let setup = Setup::impact();
     let seed = 4u64;
-    let mut imp = Vec::new();
-    for (a, name) in [(0usize, "x"), (1, "y")] {
-        let p = dir.path().join(format!("imp_{name}.csv"));
-        impact_record(
-            &machine,
-            &setup,
-            CENTRE,
-            a,
-            5,
-            2.0,
-            seed * 1000 + 700 + a as u64,
-        )
-        .write_csv(&p)
-        .expect("write");
-        imp.push(p);
-    }
-    let twin = dir.path().join("twin.json");
-    let mut args = vec!["identify", "-q"];
-    args.extend(imp.iter().map(|p| s(p)));
-    args.extend(["--out", s(&twin)]);
-    let o = mtwin(&args);
-    assert!(o.status.success(), "{}", stderr(&o));
+    // the centre impact test of `lumped::effects::write_diagnosis_material` for this seed
+    let (_, twin) = centre_twin(dir.path(), &machine, seed * 1000 + 700);
     let c = case(&machine, Effect::Healthy, seed);
     let files: Vec<PathBuf> = c
         .records
