@@ -1209,10 +1209,14 @@ pub fn refit(
              whose axes sweep the workspace mix the poses' modes), or re-identify the twin from \
              an impact test",
             report.drift_fit_pct,
-            if kept.is_empty() {
-                String::new()
-            } else {
-                format!("; modes kept as they were: {}", kept.join(", "))
+            match kept.len() {
+                0 => String::new(),
+                n if n <= 6 => format!("; modes kept as they were: {}", kept.join(", ")),
+                n => format!(
+                    "; {n} modes kept as they were: {} and {} more",
+                    kept[..4].join(", "),
+                    n - 4
+                ),
             }
         ));
     }
