@@ -701,7 +701,12 @@ pub fn identify_frfs(
                     plan.band_hz = [a, b];
                 }
             }
-            if total == 1 {
+            // which channels steer the poles: for a single pose the plan's steering channels
+            // (on the second generator's poses alone this raised xx/yy vs truth from 69-98
+            // to 93-98.6 %); in a campaign all the used ones, whose shapes the tracking pairs
+            // across poses (with the rule there, its x direction's measured poses fell from
+            // 87-97 to 83-96 %)
+            let steer = if total == 1 {
                 for d in plan.channels.iter_mut() {
                     if d.used && !crate::plan::steers(d) {
                         d.reason.push_str(
@@ -710,7 +715,10 @@ pub fn identify_frfs(
                         );
                     }
                 }
-            }
+                crate::plan::steering_channels(&plan)
+            } else {
+                plan.used_channels()
+            };
             let fitted = select_channels(&m.frf, &plan.used_channels());
             let options = FitOptions {
                 band_hz: Some((plan.band_hz[0], plan.band_hz[1])),
@@ -730,7 +738,7 @@ pub fn identify_frfs(
             let mut warnings = m.warnings;
             let mut parts = Vec::new();
             let (res, plan) = if directions.is_empty() {
-                fit_pose(&fitted, &options, plan, opts, m.pose, per_input, total == 1)?
+                fit_pose(&fitted, &options, plan, opts, m.pose, per_input, &steer)?
             } else {
                 // one fit per force direction, tracked apart (see separate_directions)
                 let mut merged_plan = plan.clone();
@@ -767,7 +775,7 @@ pub fn identify_frfs(
                         opts,
                         m.pose,
                         per_input,
-                        total == 1,
+                        &steer,
                     )?;
                     merged_plan.alternatives.extend(
                         p.alternatives
@@ -1628,14 +1636,6 @@ fn track_modes(fits: &mut [PoseFit]) -> Result<Vec<String>> {
     Ok(warnings)
 }
 
-/// The first fit of a pose, then the alternatives when a channel fits its measured FRF
-/// worse than [`TRY_ALTERNATIVES_BELOW`]: the inverse-variance weighting (when the
-/// campaign allows it) and the balanced weighting, then, if a channel is still below
-/// [`QUALITY_WARNING_BELOW`] and the diagram found fewer physical modes than the model
-/// has (or none), a deeper
-/// stabilization diagram (orders up to 128, no early stop) with the first and the best
-/// weighting so far; the best mean channel fit (octave-averaged, [`octave_fits`]) wins
-/// (an alternative must gain 0.2 points). The plan records what was tried.
 /// Whether [`fit_pose`] tries one fit per force direction.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum PerInput {
@@ -1648,6 +1648,15 @@ enum PerInput {
 /// Name of the per-direction alternative in `plan.alternatives`.
 const PER_INPUT_NAME: &str = "one fit per force direction";
 
+/// The first fit of a pose, then the alternatives when a channel fits its measured FRF
+/// worse than [`TRY_ALTERNATIVES_BELOW`]: the inverse-variance weighting (when the
+/// campaign allows it) and the balanced weighting, then, if a channel is still below
+/// [`QUALITY_WARNING_BELOW`] and the diagram found fewer physical modes than the model
+/// has (or none), a deeper
+/// stabilization diagram (orders up to 128, no early stop) with the first and the best
+/// weighting so far; the best mean channel fit (octave-averaged, [`octave_fits`]) wins
+/// (an alternative must gain 0.2 points). The plan records what was tried. Every fit
+/// takes its poles from the channels `steer` ([`fit_frf_steered`]).
 fn fit_pose(
     frf: &Frf,
     options: &FitOptions,
@@ -1655,19 +1664,9 @@ fn fit_pose(
     opts: &CampaignOptions,
     pose: [f64; 3],
     per_input: PerInput,
-    single_pose: bool,
+    steer: &[crate::axis::Channel],
 ) -> Result<(crate::rational_fit::FitResult, PosePlan)> {
     let inputs = input_axes(frf);
-    // which channels steer the poles: in a campaign all the used ones, whose shapes the
-    // tracking pairs across poses (measured on the second generator's 18-pose campaign:
-    // with only the direct and fully coherent channels steering, its x direction's
-    // measured poses fell from 87-97 to 83-96 % vs truth); for a single pose the plan's
-    // steering channels (there the same rule raised them from 69-98 to 93-98 %)
-    let steer = if single_pose {
-        crate::plan::steering_channels(&plan)
-    } else {
-        plan.used_channels()
-    };
     let name = |o: &FitOptions| -> String {
         if let (Some(n), None) = (o.n_modes, options.n_modes) {
             return format!("{} (order raised)", crate::axis::count(n, "mode"));
@@ -1726,11 +1725,11 @@ fn fit_pose(
     }
     // the first fit and the other weightings do not depend on each other: all at once
     let (first, mut ready): (Result<crate::rational_fit::FitResult>, Vec<_>) = rayon::join(
-        || fit_frf_steered(frf, options, &steer),
+        || fit_frf_steered(frf, options, steer),
         || {
             candidates
                 .par_iter()
-                .map(|c| Some(fit_frf_steered(frf, c, &steer)))
+                .map(|c| Some(fit_frf_steered(frf, c, steer)))
                 .collect()
         },
     );
@@ -1797,14 +1796,14 @@ fn fit_pose(
             let fresh: Vec<Option<Result<crate::rational_fit::FitResult>>> = candidates
                 [ready.len()..]
                 .par_iter()
-                .map(|c| Some(fit_frf_steered(frf, c, &steer)))
+                .map(|c| Some(fit_frf_steered(frf, c, steer)))
                 .collect();
             ready.extend(fresh);
         }
         let cand = &candidates[i];
         let fitted_cand = ready[i]
             .take()
-            .unwrap_or_else(|| fit_frf_steered(frf, cand, &steer));
+            .unwrap_or_else(|| fit_frf_steered(frf, cand, steer));
         i += 1;
         match fitted_cand {
             Ok(alt) => {
@@ -1853,7 +1852,7 @@ fn fit_pose(
             n_modes: None,
             ..best_options.clone()
         };
-        match fit_per_input(frf, &inputs, &sub_options, &steer) {
+        match fit_per_input(frf, &inputs, &sub_options, steer) {
             Ok(alt) => {
                 let s = score(&alt);
                 let better = s.0 > best_score.0 + ORDER_ALTERNATIVE_GAIN;
