@@ -262,9 +262,31 @@ pub fn band_limited_lti(model: &ModalModel, forces: &[[f64; 3]], dt: f64) -> Vec
             if i + 1 == n {
                 break;
             }
-            // each state component's FIR as a dot product in four partial sums
+            // each state component's FIR as a dot product in four partial sums; four
+            // components at a time, so each window sample is loaded once for all four
+            // (the same sums in the same order as one component at a time)
             let win = &xp[i..i + width];
-            for (zq, col) in z.iter_mut().zip(fir_t.chunks_exact(width)) {
+            let mut zs = z.chunks_exact_mut(4);
+            let mut cols = fir_t.chunks_exact(4 * width);
+            for (zq, col) in (&mut zs).zip(&mut cols) {
+                let mut acc = [[0.0; 4]; 4];
+                for (t, x) in win.chunks_exact(4).enumerate() {
+                    for (r, a) in acc.iter_mut().enumerate() {
+                        let f = &col[r * width + 4 * t..][..4];
+                        for c in 0..4 {
+                            a[c] += f[c] * x[c];
+                        }
+                    }
+                }
+                for (zr, a) in zq.iter_mut().zip(&acc) {
+                    *zr = (a[0] + a[1]) + (a[2] + a[3]);
+                }
+            }
+            for (zq, col) in zs
+                .into_remainder()
+                .iter_mut()
+                .zip(cols.remainder().chunks_exact(width))
+            {
                 let mut acc = [0.0; 4];
                 for (t, x) in col.chunks_exact(4).zip(win.chunks_exact(4)) {
                     for c in 0..4 {
