@@ -531,11 +531,7 @@ pub fn diagnose(
         // than the twin (a whole-response gain elsewhere is then not its doing: a healthy
         // milling record of the second generator got "cross coupling" for a 1.2-point
         // whole-response gain while its band fell from 89.0 to 77.6 %)
-        let band_ok = band_fits
-            .last()
-            .copied()
-            .flatten()
-            .is_none_or(|(_, x, y)| y >= x);
+        let band_ok = band_fits[i].is_none_or(|(_, x, y)| y >= x);
         if explains && band_ok && fit > fit_before + need && best.is_none_or(|b| fit > b.1) {
             best = Some((i, fit));
         }
