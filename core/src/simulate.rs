@@ -150,10 +150,13 @@ pub fn run_band_limited(
 /// upsampled record, the response at the original samples), stepped at the record's own
 /// rate: the [`BAND_LIMITED_FACTOR`] first-order-hold steps between two samples and the
 /// interpolation kernel's taps (the record zero-extended, as [`upsample`] treats its ends)
-/// are folded into one transition `Φ^L` and one FIR of `2·24` taps per mode and force
-/// axis. The same response up to rounding (the sums run in another order), for the cost
-/// of about 50 multiply-adds per mode, force axis and sample instead of 16 steps and the
-/// upsampling. Displacement per axis x, y, z at every sample.
+/// are folded into one transition `Φ^L` per mode, driven by the sample that has left the
+/// kernel's window, and one FIR of `2·24 − 1` taps per channel (the modes' transients
+/// while a sample is in the window, summed over the modes). The same response up to
+/// rounding (the sums run in another order), for about 6 multiply-adds per mode and
+/// force axis, 2 per mode and channel and 47 per channel, per sample, instead of 16
+/// steps and the upsampling.
+/// Displacement per axis x, y, z at every sample.
 pub fn band_limited_lti(model: &ModalModel, forces: &[[f64; 3]], dt: f64) -> Vec<[f64; 3]> {
     let n = forces.len();
     let l = BAND_LIMITED_FACTOR;
@@ -231,10 +234,31 @@ pub fn band_limited_lti(model: &ModalModel, forces: &[[f64; 3]], dt: f64) -> Vec
         }
         trans.push(pows[l]);
     }
-    // by state component: fir_t[q · width + jj] = fir[jj · w2 + q]
-    let fir_t: Vec<f64> = (0..w2 * width)
-        .map(|i| fir[(i % width) * w2 + i / width])
-        .collect();
+    // A unit sample x[m] reaches mode k's state from n = m − (half − 1) on (the kernel
+    // looks ahead): through the FIR while it is in the window, n ≤ m + half, then freely,
+    // s[n] = Φ^{L·(n − m − half)} s[m + half]. So the state is a recursion driven by
+    // x[n − half] through one input vector (the state at lag `half` of a unit sample),
+    // and the transient at lags −(half − 1)..=(half − 1) differs from that recursion only
+    // by a finite response, which the outputs take through one FIR per channel summed
+    // over the modes: ~2·half multiply-adds per channel and sample instead of 4·half per
+    // mode.
+    let lags = width - 1; // −(half − 1)..=(half − 1)
+    let mut drive = Vec::with_capacity(nm); // s at lag `half` of a unit sample
+    let mut transient = vec![[0.0; 2]; nm * lags]; // s at lag idx − (half − 1)
+    for (k, p) in trans.iter().enumerate() {
+        let mut s = [0.0; 2];
+        for idx in 0..width {
+            let jj = width - 1 - idx;
+            s = [
+                p[0][0] * s[0] + p[0][1] * s[1] + fir[jj * w2 + 2 * k],
+                p[1][0] * s[0] + p[1][1] * s[1] + fir[jj * w2 + 2 * k + 1],
+            ];
+            if idx < lags {
+                transient[k * lags + idx] = s;
+            }
+        }
+        drive.push(s);
+    }
     let mut out = vec![[0.0; 3]; n];
     // the force axes that carry force; the others leave their states at rest
     for j in (0..3).filter(|&j| forces.iter().any(|f| f[j] != 0.0)) {
@@ -244,65 +268,87 @@ pub fn band_limited_lti(model: &ModalModel, forces: &[[f64; 3]], dt: f64) -> Vec
         if chans.is_empty() {
             continue;
         }
-        // x zero-extended by the kernel's half-width on both sides
+        // x zero-extended by the kernel's half-width on both sides: x[m] = xp[m + half - 1]
         let mut xp = vec![0.0; n + width];
         for (d, f) in xp[half - 1..].iter_mut().zip(forces) {
             *d = f[j];
         }
-        let mut state = vec![0.0; w2];
-        let mut z = vec![0.0; w2];
+        // per channel, the transients (and the feedthrough at lag 0) as one FIR over
+        // x[n − (half − 1) + jj] = xp[n + jj]: tap jj is lag (half − 1) − jj
+        let direct: Vec<Vec<f64>> = (chans.iter())
+            .map(|ch| {
+                let mut taps: Vec<f64> = (0..lags)
+                    .map(|jj| {
+                        let idx = lags - 1 - jj;
+                        (ch.num.iter().enumerate())
+                            .map(|(k, b)| {
+                                let t = transient[k * lags + idx];
+                                b.b0 * t[0] + b.b1 * t[1]
+                            })
+                            .sum()
+                    })
+                    .collect();
+                taps[half - 1] += ch.d;
+                let mut z = vec![0.0; n];
+                fir_block(&taps, &xp[..n + lags - 1], &mut z);
+                z
+            })
+            .collect();
+        // the record starts at rest: take back the states that the kernel's look-ahead
+        // built before sample 0 (the free response of the state at 0, s[0] = Σ_m T[−m]·x[m])
+        let mut state: Vec<[f64; 2]> = (0..nm)
+            .map(|k| {
+                let mut s0 = [0.0; 2];
+                for (m, x) in xp[half - 1..].iter().take(half.min(n)).enumerate() {
+                    let t = transient[k * lags + half - 1 - m];
+                    s0 = [s0[0] - t[0] * x, s0[1] - t[1] * x];
+                }
+                s0
+            })
+            .collect();
         for i in 0..n {
-            for ch in &chans {
-                let mut acc = ch.d * forces[i][j];
-                for (k, num) in ch.num.iter().enumerate() {
-                    acc += num.b0 * state[2 * k] + num.b1 * state[2 * k + 1];
+            for (ch, z) in chans.iter().zip(&direct) {
+                let mut acc = z[i];
+                for (num, s) in ch.num.iter().zip(&state) {
+                    acc += num.b0 * s[0] + num.b1 * s[1];
                 }
                 out[i][ch.channel.output.index()] += acc;
             }
-            if i + 1 == n {
-                break;
-            }
-            // each state component's FIR as a dot product in four partial sums; four
-            // components at a time, so each window sample is loaded once for all four
-            // (the same sums in the same order as one component at a time)
-            let win = &xp[i..i + width];
-            let mut zs = z.chunks_exact_mut(4);
-            let mut cols = fir_t.chunks_exact(4 * width);
-            for (zq, col) in (&mut zs).zip(&mut cols) {
-                let mut acc = [[0.0; 4]; 4];
-                for (t, x) in win.chunks_exact(4).enumerate() {
-                    for (r, a) in acc.iter_mut().enumerate() {
-                        let f = &col[r * width + 4 * t..][..4];
-                        for c in 0..4 {
-                            a[c] += f[c] * x[c];
-                        }
-                    }
-                }
-                for (zr, a) in zq.iter_mut().zip(&acc) {
-                    *zr = (a[0] + a[1]) + (a[2] + a[3]);
-                }
-            }
-            for (zq, col) in zs
-                .into_remainder()
-                .iter_mut()
-                .zip(cols.remainder().chunks_exact(width))
-            {
-                let mut acc = [0.0; 4];
-                for (t, x) in col.chunks_exact(4).zip(win.chunks_exact(4)) {
-                    for c in 0..4 {
-                        acc[c] += t[c] * x[c];
-                    }
-                }
-                *zq = (acc[0] + acc[1]) + (acc[2] + acc[3]);
-            }
-            for (k, p) in trans.iter().enumerate() {
-                let (q, v) = (state[2 * k], state[2 * k + 1]);
-                state[2 * k] = p[0][0] * q + p[0][1] * v + z[2 * k];
-                state[2 * k + 1] = p[1][0] * q + p[1][1] * v + z[2 * k + 1];
+            // x[i − half + 1], the sample entering the recursion at step i → i + 1
+            let x = xp[i];
+            for ((s, p), g) in state.iter_mut().zip(&trans).zip(&drive) {
+                *s = [
+                    p[0][0] * s[0] + p[0][1] * s[1] + g[0] * x,
+                    p[1][0] * s[0] + p[1][1] * s[1] + g[1] * x,
+                ];
             }
         }
     }
     out
+}
+
+/// `z[b] = Σ_jj f[jj] · x[b + jj]` for every `b` of `z` (`x` holds `z.len() + f.len() - 1`
+/// samples), sixteen outputs at a time in registers (eight independent sums of two).
+fn fir_block(f: &[f64], x: &[f64], z: &mut [f64]) {
+    const R: usize = 16;
+    let width = f.len();
+    let mut chunks = z.chunks_exact_mut(R);
+    let mut b = 0;
+    for zc in &mut chunks {
+        let xw = &x[b..b + width + R - 1];
+        let mut acc = [0.0f64; R];
+        for (xs, &c) in xw.windows(R).zip(f) {
+            for t in 0..R {
+                acc[t] += c * xs[t];
+            }
+        }
+        zc.copy_from_slice(&acc);
+        b += R;
+    }
+    for (t, zt) in chunks.into_remainder().iter_mut().enumerate() {
+        let xs = &x[b + t..b + t + width];
+        *zt = xs.iter().zip(f).map(|(x, c)| c * x).sum();
+    }
 }
 
 /// Exact discretisation of one section `[q, q̇]` for a step `h`:
