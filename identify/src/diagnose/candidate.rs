@@ -36,51 +36,67 @@ pub(super) fn dominant_axis(model: &ModalModel, k: usize) -> Axis {
         .map_or(Axis::X, |c| c.channel.output)
 }
 
-/// Linear least squares of a channel's numerators and residual with fixed poles.
-pub(super) fn fit_numerators(
-    modes: &[Mode],
-    p: &Points,
-    residual_of: impl Fn(f64) -> Complex64,
-) -> Option<ChannelModel> {
-    let n = modes.len();
+/// Linear least squares of a channel's numerators with fixed poles, without a residual
+/// compliance (`d = 0`: a constant fitted on a narrow band is an acceleration growing
+/// with ω² everywhere else).
+///
+/// Only the modes the points constrain get numerators: those within a third octave of
+/// the points' span (the nearest one when none is). A channel seen only around one mode
+/// (a cross channel coherent near its peak) would otherwise give every other mode a
+/// numerator that the few points cannot fix: they cancel there and blow up elsewhere.
+pub(super) fn fit_numerators(modes: &[Mode], p: &Points) -> Option<ChannelModel> {
+    let (f_lo, f_hi) = p
+        .freqs_hz
+        .iter()
+        .fold((f64::INFINITY, 0.0f64), |(a, b), &f| (a.min(f), b.max(f)));
+    let third = 2f64.powf(1.0 / 3.0);
+    let fk = |m: &Mode| m.wn / (2.0 * PI);
+    let mut active: Vec<usize> = (0..modes.len())
+        .filter(|&k| fk(&modes[k]) >= f_lo / third && fk(&modes[k]) <= f_hi * third)
+        .collect();
+    if active.is_empty() {
+        let dist = |k: usize| (fk(&modes[k]).ln() - (f_lo * f_hi).sqrt().ln()).abs();
+        active.extend((0..modes.len()).min_by(|&a, &b| dist(a).total_cmp(&dist(b))));
+    }
+    let n = active.len();
     let rows = 2 * p.h.len();
     if rows < 2 * n + 1 {
         return None;
     }
-    let mut a = DMatrix::zeros(rows, 2 * n + 1);
+    let mut a = DMatrix::zeros(rows, 2 * n);
     let mut b = DVector::zeros(rows);
     for (i, ((f, h), sg)) in p.freqs_hz.iter().zip(&p.h).zip(&p.sigma).enumerate() {
         let s = Complex64::new(0.0, 2.0 * PI * f);
-        let target = (h - residual_of(*f)) / sg;
+        let target = h / sg;
         b[2 * i] = target.re;
         b[2 * i + 1] = target.im;
-        for (k, m) in modes.iter().enumerate() {
+        for (j, &k) in active.iter().enumerate() {
+            let m = &modes[k];
             let c0 = 1.0 / m.den(s) / sg;
             let c1 = s / m.den(s) / sg;
-            a[(2 * i, 2 * k)] = c0.re;
-            a[(2 * i + 1, 2 * k)] = c0.im;
-            a[(2 * i, 2 * k + 1)] = c1.re;
-            a[(2 * i + 1, 2 * k + 1)] = c1.im;
+            a[(2 * i, 2 * j)] = c0.re;
+            a[(2 * i + 1, 2 * j)] = c0.im;
+            a[(2 * i, 2 * j + 1)] = c1.re;
+            a[(2 * i + 1, 2 * j + 1)] = c1.im;
         }
-        a[(2 * i, 2 * n)] = 1.0 / sg;
     }
     // column scaling for conditioning
-    let scales: Vec<f64> = (0..2 * n + 1)
-        .map(|j| a.column(j).norm().max(1e-300))
-        .collect();
+    let scales: Vec<f64> = (0..2 * n).map(|j| a.column(j).norm().max(1e-300)).collect();
     for (j, sc) in scales.iter().enumerate() {
         a.column_mut(j).scale_mut(1.0 / sc);
     }
     let x = a.svd(true, true).solve(&b, 1e-12).ok()?;
+    let mut num = vec![ModeNum { b0: 0.0, b1: 0.0 }; modes.len()];
+    for (j, &k) in active.iter().enumerate() {
+        num[k] = ModeNum {
+            b0: x[2 * j] / scales[2 * j],
+            b1: x[2 * j + 1] / scales[2 * j + 1],
+        };
+    }
     Some(ChannelModel {
         channel: p.channel,
-        num: (0..n)
-            .map(|k| ModeNum {
-                b0: x[2 * k] / scales[2 * k],
-                b1: x[2 * k + 1] / scales[2 * k + 1],
-            })
-            .collect(),
-        d: x[2 * n] / scales[2 * n],
+        num,
+        d: 0.0,
     })
 }
 

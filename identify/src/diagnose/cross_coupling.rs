@@ -1,17 +1,22 @@
 //! Cause `cross_coupling`: the cross channels the twin lacks.
 
-use super::candidate::{fit_numerators, map_models, Cand};
+use super::candidate::{fit_numerators, map_models, retune, Cand};
 use super::Cause;
 use crate::modal_update::{chi, Points};
-use crate::model::{ChannelModel, ModalModel};
+use crate::model::{ChannelModel, ModalModel, ModeNum};
 use crate::twin::Twin;
-use num_complex::Complex64;
 use serde_json::{json, Map};
 
 /// The channels the data have and the twin lacks, each fitted with the twin's modes
-/// (numerators and residual only); `channel` names the one with the strongest response
-/// (in standard errors), `channels` lists every one added (milling excites x and y at
-/// once: both cross channels can be missing).
+/// (numerators only, of the modes near the channel's points); `channel` names the one
+/// with the strongest response (in standard errors), `channels` lists every one added
+/// (milling excites x and y at once: both cross channels can be missing).
+///
+/// A mode turned into another axis also changes its direct response (it falls as the
+/// cross one rises) and may move a little: each twin mode near the strongest missing
+/// channel's points is refitted (frequency, damping, numerators in every channel, the
+/// missing ones included) and the best refit is kept when it fits the evidence better
+/// than the numerators alone; `freq_hz` is then that mode's new frequency.
 pub(super) fn cand_cross_coupling(twin: &Twin, model: &ModalModel, pts: &[Points]) -> Option<Cand> {
     let strength = |p: &Points| {
         p.h.iter()
@@ -27,7 +32,7 @@ pub(super) fn cand_cross_coupling(twin: &Twin, model: &ModalModel, pts: &[Points
     let p = *missing.first()?;
     let fitted: Vec<ChannelModel> = missing
         .iter()
-        .filter_map(|p| fit_numerators(&model.modes, p, |_| Complex64::new(0.0, 0.0)))
+        .filter_map(|p| fit_numerators(&model.modes, p))
         .collect();
     if fitted.first().is_none_or(|c| c.channel != p.channel) {
         return None;
@@ -39,26 +44,69 @@ pub(super) fn cand_cross_coupling(twin: &Twin, model: &ModalModel, pts: &[Points
             .zip(&p.freqs_hz)
             .max_by(|a, b| a.0.norm().total_cmp(&b.0.norm()))
             .map_or(0.0, |(_, f)| *f);
-    let ext = {
-        let mut t = map_models(twin, |pm| {
-            let mut pm = pm.clone();
-            pm.channels.extend(fitted.iter().cloned());
-            pm
-        });
-        t.channels.extend(fitted.iter().map(|c| c.channel));
-        t.channels.sort();
-        t
+    let chi_num = chi(&m, pts, 0.0);
+    // the turned mode: the twin with the missing channels (zero numerators), one mode
+    // near the strongest missing channel refitted
+    let zeros = |c: &ChannelModel| ChannelModel {
+        channel: c.channel,
+        num: vec![ModeNum { b0: 0.0, b1: 0.0 }; c.num.len()],
+        d: 0.0,
     };
+    let mut m0 = model.clone();
+    m0.channels.extend(fitted.iter().map(zeros));
+    let turned = fitted[0]
+        .num
+        .iter()
+        .enumerate()
+        .filter(|(_, n)| n.b0 != 0.0 || n.b1 != 0.0)
+        .filter_map(|(k, _)| {
+            let r = retune(&m0, k, pts).ok()?;
+            Some((chi(&r.model, pts, 0.0), k, r.model))
+        })
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+        .filter(|t| t.0 < chi_num);
     let mut d = Map::new();
     d.insert("channel".into(), json!(p.channel.name()));
-    d.insert("freq_hz".into(), json!(peak_f));
     d.insert(
         "channels".into(),
         json!(fitted.iter().map(|c| c.channel.name()).collect::<Vec<_>>()),
     );
+    let (chi_c, ext) = match turned {
+        Some((c, k, new)) => {
+            super::trace(|| {
+                format!(
+                    "cross_coupling: mode {k} turned: {:.1} -> {:.1} Hz, chi {chi_num:.2} -> {c:.2}",
+                    model.modes[k].freq_hz(),
+                    new.modes[k].freq_hz()
+                )
+            });
+            d.insert("freq_hz".into(), json!(new.modes[k].freq_hz()));
+            d.insert("mode".into(), json!(k));
+            let mut t = map_models(twin, |pm| {
+                let mut pm = pm.clone();
+                pm.channels.extend(fitted.iter().map(zeros));
+                crate::modal_update::apply_change(&mut pm, &m0, &new, 1.0);
+                pm
+            });
+            t.channels.extend(fitted.iter().map(|c| c.channel));
+            t.channels.sort();
+            (c, t)
+        }
+        None => {
+            d.insert("freq_hz".into(), json!(peak_f));
+            let mut t = map_models(twin, |pm| {
+                let mut pm = pm.clone();
+                pm.channels.extend(fitted.iter().cloned());
+                pm
+            });
+            t.channels.extend(fitted.iter().map(|c| c.channel));
+            t.channels.sort();
+            (chi_num, t)
+        }
+    };
     Some(Cand {
         cause: Cause::CrossCoupling,
-        chi: chi(&m, pts, 0.0),
+        chi: chi_c,
         twin: ext,
         details: d,
         per_record: Vec::new(),

@@ -694,10 +694,12 @@ pub fn diagnose(
             best = Some((i, s.fit_holdout_pct));
         }
     }
+    // a nonlinearity whose linearised twin does not help keeps the twin as it was
+    let twin_kept = matches!(best, Some((i, fit)) if cands[i].cause == Cause::Nonlinearity && fit <= fit_before);
     let (cause, mut details, ext, fit_after) = match best {
         // the linearised twin helps only when hard hits dominate the held-out data; else
         // the twin stays as it was (a linear twin cannot follow both force levels)
-        Some((i, fit)) if cands[i].cause == Cause::Nonlinearity && fit <= fit_before => {
+        Some((i, _)) if twin_kept => {
             let mut d = cands[i].details.clone();
             d.insert(
                 "extension".into(),
@@ -756,11 +758,9 @@ pub fn diagnose(
                 "{holdout}; scored on the responses band-passed to {lo:.0}-{hi:.0} Hz where \
                  the effect acts (whole responses: {fit_before:.2} % -> {fit_after:.2} %)"
             );
-            if fit_after > fit_before {
-                (fit_before, fit_after) = (x, y);
-            } else {
-                (fit_before, fit_after) = (x, x);
-            }
+            // the band's fits of the twin and of the extension (the twin's twice when
+            // the extension is the twin itself)
+            (fit_before, fit_after) = (x, if twin_kept { x } else { y });
         }
     }
     details.insert("holdout".into(), json!(holdout));
