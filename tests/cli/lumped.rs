@@ -42,6 +42,26 @@ fn centre_twin(dir: &Path, machine: &Machine, seed0: u64) -> (Vec<PathBuf>, Path
     (files, twin)
 }
 
+/// The diagnosis of `effect`'s case for `seed` on the nominal lumped mill against the
+/// one-pose twin of that seed's centre impact test (as
+/// `lumped::effects::write_diagnosis_material` makes them).
+fn diagnose_effect_case(effect: Effect, seed: u64) -> serde_json::Value {
+    let dir = tmp();
+    let machine = Machine::nominal();
+    let (_, twin) = centre_twin(dir.path(), &machine, seed * 1000 + 700);
+    let c = case(&machine, effect, seed);
+    let files: Vec<PathBuf> = c
+        .records
+        .iter()
+        .map(|(name, r)| {
+            let p = dir.path().join(name);
+            r.write_csv(&p).expect("write");
+            p
+        })
+        .collect();
+    diagnose(&twin, &files, &dir.path().join("out"))
+}
+
 #[test]
 fn lumped_one_pose_twin_diagnoses_healthy_disturbance_and_delay() {
     let dir = tmp();
@@ -347,22 +367,8 @@ fn lumped_one_pose_twin_fits_the_truth_as_well_as_its_h1() {
 /// 77.6 %.
 #[test]
 fn lumped_healthy_milling_names_no_cause_that_predicts_its_band_worse() {
-    let dir = tmp();
-    let machine = Machine::nominal();
     let seed = 4u64;
-    // the centre impact test of `lumped::effects::write_diagnosis_material` for this seed
-    let (_, twin) = centre_twin(dir.path(), &machine, seed * 1000 + 700);
-    let c = case(&machine, Effect::Healthy, seed);
-    let files: Vec<PathBuf> = c
-        .records
-        .iter()
-        .map(|(name, r)| {
-            let p = dir.path().join(name);
-            r.write_csv(&p).expect("write");
-            p
-        })
-        .collect();
-    let d = diagnose(&twin, &files, &dir.path().join("out"));
+    let d = diagnose_effect_case(Effect::Healthy, seed);
     let cause = d["cause"].as_str().unwrap_or("?");
     eprintln!("healthy seed {seed}: {cause} {}", d["details"]);
     let (before, after) = (
@@ -388,21 +394,8 @@ fn lumped_healthy_milling_names_no_cause_that_predicts_its_band_worse() {
 /// (a false alarm on a healthy machine).
 #[test]
 fn lumped_healthy_milling_whose_frf_misfit_the_held_out_data_contradict_is_none() {
-    let dir = tmp();
-    let machine = Machine::nominal();
     let seed = 3u64;
-    let (_, twin) = centre_twin(dir.path(), &machine, seed * 1000 + 700);
-    let c = case(&machine, Effect::Healthy, seed);
-    let files: Vec<PathBuf> = c
-        .records
-        .iter()
-        .map(|(name, r)| {
-            let p = dir.path().join(name);
-            r.write_csv(&p).expect("write");
-            p
-        })
-        .collect();
-    let d = diagnose(&twin, &files, &dir.path().join("out"));
+    let d = diagnose_effect_case(Effect::Healthy, seed);
     let cause = d["cause"].as_str().unwrap_or("?");
     eprintln!("healthy seed {seed}: {cause} {}", d["details"]);
     assert_eq!(cause, "none", "healthy data named {cause}: {d}");
@@ -424,21 +417,8 @@ fn lumped_healthy_milling_whose_frf_misfit_the_held_out_data_contradict_is_none(
 /// dozen lines around 140 Hz and the extended twin's simulation blew up (fit -1e13 %).
 #[test]
 fn lumped_turned_guide_is_named_cross_coupling() {
-    let dir = tmp();
-    let machine = Machine::nominal();
     let seed = 4u64;
-    let (_, twin) = centre_twin(dir.path(), &machine, seed * 1000 + 700);
-    let c = case(&machine, Effect::CrossCoupling, seed);
-    let files: Vec<PathBuf> = c
-        .records
-        .iter()
-        .map(|(name, r)| {
-            let p = dir.path().join(name);
-            r.write_csv(&p).expect("write");
-            p
-        })
-        .collect();
-    let d = diagnose(&twin, &files, &dir.path().join("out"));
+    let d = diagnose_effect_case(Effect::CrossCoupling, seed);
     let cause = d["cause"].as_str().unwrap_or("?");
     eprintln!("turned guide seed {seed}: {cause} {}", d["details"]);
     assert_eq!(cause, "cross_coupling", "{d}");
