@@ -30,10 +30,13 @@
 //!     both signals get the same exponential window `e^{-σ t}`, with σ chosen so that
 //!     the response ends near 1 % of its peak; the estimate then equals `H(s + σ)`
 //!     (every pole moved left by σ: add `σ / ωₙ` to a mode's damping ratio to undo it),
-//!     reported in [`FrfEstimate::exp_window_sigma`]. Double hits (a second pulse above
-//!     10 % of the hit's peak after the pulse ended) and overloads (three or more
+//!     reported in [`FrfEstimate::exp_window_sigma`]. Overloads (three or more
 //!     consecutive samples at the extreme value of the force or a response) are
-//!     dropped with a warning. H1 is averaged over the good hits; common record length
+//!     dropped with a warning. Double hits (a second pulse above 10 % of the hit's peak
+//!     after the pulse ended) are dropped too, unless fewer than three clean hits along
+//!     their force axis would remain: then they are kept with a force window over every
+//!     pulse (a warning says so), since one average leaves no coherence to judge the
+//!     channels and the band by. H1 is averaged over the good hits; common record length
 //!     = the shortest hit record (or `nfft`, zero padding when longer).
 //!   - *Continuous* (noise, shaker, operating data): Welch, periodic Hann window,
 //!     50 % overlap; segments are streamed (one segment in memory at a time), and a

@@ -7,6 +7,9 @@ use crate::model::{ChannelModel, ModalModel, ModeNum};
 use crate::twin::Twin;
 use serde_json::{json, Map};
 
+/// Largest relative frequency change of a mode refitted as turned into another axis.
+const TURNED_MAX_SHIFT: f64 = 0.05;
+
 /// The channels the data have and the twin lacks, each fitted with the twin's modes
 /// (numerators only, of the modes near the channel's points); `channel` names the one
 /// with the strongest response (in standard errors), `channels` lists every one added
@@ -63,6 +66,9 @@ pub(super) fn cand_cross_coupling(twin: &Twin, model: &ModalModel, pts: &[Points
             let r = retune(&m0, k, pts).ok()?;
             Some((chi(&r.model, pts, 0.0), k, r.model))
         })
+        // a turned mode keeps its frequency within a few per cent (a larger move is
+        // another mode's work, not this one turning)
+        .filter(|(_, k, r)| (r.modes[*k].wn / model.modes[*k].wn - 1.0).abs() <= TURNED_MAX_SHIFT)
         .min_by(|a, b| a.0.total_cmp(&b.0))
         .filter(|t| t.0 < chi_num);
     let mut d = Map::new();

@@ -19,6 +19,19 @@ struct Hit {
     /// Force sign (+1 or −1) so that the hit is positive.
     sign: f64,
     input: Axis,
+    /// A double hit kept for want of clean ones (its pulse ends after the last pulse).
+    double: bool,
+}
+
+/// Fewer clean hits than this along a force axis, and its double hits are kept.
+const MIN_CLEAN_HITS: usize = 3;
+
+/// Why a hit is not used as it is.
+enum Rejected {
+    /// A second pulse: `last_pulse_end` is the first sample after the last one.
+    Double { why: String, last_pulse_end: usize },
+    /// Overload: never used.
+    Bad(String),
 }
 
 pub(super) fn estimate(
@@ -28,6 +41,7 @@ pub(super) fn estimate(
 ) -> Result<FrfEstimate> {
     let io = &ctx.opts.impact;
     let mut hits: Vec<Hit> = Vec::new();
+    let mut doubles: Vec<(Hit, String, String, usize)> = Vec::new();
     let mut n_detected = 0;
     for (r, (rec, info)) in records.iter().zip(infos).enumerate() {
         let found = detect(rec, r, info.strongest, io, ctx.dt);
@@ -48,14 +62,47 @@ pub(super) fn estimate(
             }
             continue;
         }
-        for (k, h) in found.into_iter().enumerate() {
+        for (k, mut h) in found.into_iter().enumerate() {
             match check(rec, &h, io) {
                 Ok(()) => hits.push(h),
-                Err(why) => ctx
-                    .dropped
-                    .push(format!("{} hit {}: {why}", rec.source, k + 1)),
+                Err(Rejected::Double {
+                    why,
+                    last_pulse_end,
+                }) => {
+                    let label = format!("{} hit {}", rec.source, k + 1);
+                    h.pulse_end = last_pulse_end;
+                    // where its line goes in the dropped list if it is dropped
+                    doubles.push((h, label, why, ctx.dropped.len()));
+                }
+                Err(Rejected::Bad(why)) => {
+                    ctx.dropped
+                        .push(format!("{} hit {}: {why}", rec.source, k + 1))
+                }
             }
         }
+    }
+    // Double hits: dropped, unless the clean hits along their force axis would be
+    // fewer than MIN_CLEAN_HITS. A double hit is still a valid input-output pair when
+    // the force window keeps both pulses (H1 = ΣXF*/Σ|F|² weights its notched lines
+    // down); one average would leave no coherence to judge channels and band by.
+    let mut dropped_doubles = Vec::new();
+    for (h, label, why, slot) in doubles {
+        let clean = hits
+            .iter()
+            .filter(|c| c.input == h.input && !c.double)
+            .count();
+        if clean < MIN_CLEAN_HITS {
+            ctx.warnings.push(format!(
+                "{label}: {why}; kept (only {clean} clean hit(s) along {}): its force window covers both pulses",
+                h.input
+            ));
+            hits.push(Hit { double: true, ..h });
+        } else {
+            dropped_doubles.push((slot, format!("{label}: {why}")));
+        }
+    }
+    for (slot, line) in dropped_doubles.into_iter().rev() {
+        ctx.dropped.insert(slot, line);
     }
     // Records much shorter than the others (a hit followed too soon by the next).
     if !hits.is_empty() {
@@ -275,13 +322,14 @@ fn detect(rec: &TimeSeries, r: usize, axis: Axis, io: &ImpactOptions, dt: f64) -
             base,
             sign,
             input: axis,
+            double: false,
         });
     }
     hits
 }
 
-/// Double hit and overload checks; `Err` says why the hit is dropped.
-fn check(rec: &TimeSeries, h: &Hit, io: &ImpactOptions) -> std::result::Result<(), String> {
+/// Overload and double hit checks; `Err` says why the hit is not used as it is.
+fn check(rec: &TimeSeries, h: &Hit, io: &ImpactOptions) -> std::result::Result<(), Rejected> {
     let f = rec.force(h.input).unwrap_or(&[]);
     let g = |i: usize| h.sign * (f[i] - h.base);
     let (p, peak) = (h.pulse_start..h.pulse_end.max(h.pulse_start + 1).min(h.end))
@@ -290,31 +338,42 @@ fn check(rec: &TimeSeries, h: &Hit, io: &ImpactOptions) -> std::result::Result<(
             (h.pulse_start, f64::MIN),
             |a, b| if b.1 > a.1 { b } else { a },
         );
+    if flat_top(&f[h.start..h.end]) {
+        return Err(Rejected::Bad(format!(
+            "force {} overloaded: flat top at {:.4e} (clipped); hit softer or raise the force sensor range",
+            h.input,
+            f[p]
+        )));
+    }
+    for a in rec.response_axes() {
+        let y = &rec.response(a).unwrap_or(&[])[h.start..h.end];
+        if flat_top(y) {
+            return Err(Rejected::Bad(format!(
+                "response {a} overloaded (clipped at its extreme value); hit softer or raise the sensor range"
+            )));
+        }
+    }
     if let Some(i) = (h.pulse_end..h.end).find(|&i| g(i) > io.double_hit_fraction * peak) {
         let second = (i..h.end)
             .take_while(|&j| g(j) > 0.02 * peak)
             .map(g)
             .fold(0.0, f64::max);
-        return Err(format!(
-            "double hit: a second pulse of {:.0} % of the hit's force {:.4} s after it; hit once and let the hammer rebound away",
-            100.0 * second / peak,
-            (i - p) as f64 * rec.dt
-        ));
-    }
-    if flat_top(&f[h.start..h.end]) {
-        return Err(format!(
-            "force {} overloaded: flat top at {:.4e} (clipped); hit softer or raise the force sensor range",
-            h.input,
-            f[p]
-        ));
-    }
-    for a in rec.response_axes() {
-        let y = &rec.response(a).unwrap_or(&[])[h.start..h.end];
-        if flat_top(y) {
-            return Err(format!(
-                "response {a} overloaded (clipped at its extreme value); hit softer or raise the sensor range"
-            ));
-        }
+        // the last pulse: the last sample above the double-hit level, then down to 2 %
+        let last = (h.pulse_end..h.end)
+            .rev()
+            .find(|&j| g(j) > io.double_hit_fraction * peak)
+            .unwrap_or(i);
+        let last_pulse_end = (last..h.end)
+            .find(|&j| g(j) <= 0.02 * peak)
+            .unwrap_or(h.end);
+        return Err(Rejected::Double {
+            why: format!(
+                "double hit: a second pulse of {:.0} % of the hit's force {:.4} s after it; hit once and let the hammer rebound away",
+                100.0 * second / peak,
+                (i - p) as f64 * rec.dt
+            ),
+            last_pulse_end,
+        });
     }
     Ok(())
 }
