@@ -77,39 +77,39 @@ pub(super) fn cand_cross_coupling(twin: &Twin, model: &ModalModel, pts: &[Points
         "channels".into(),
         json!(fitted.iter().map(|c| c.channel.name()).collect::<Vec<_>>()),
     );
-    let (chi_c, ext) = match turned {
+    let chi_c = match &turned {
         Some((c, k, new)) => {
             super::trace(|| {
                 format!(
                     "cross_coupling: mode {k} turned: {:.1} -> {:.1} Hz, chi {chi_num:.2} -> {c:.2}",
-                    model.modes[k].freq_hz(),
-                    new.modes[k].freq_hz()
+                    model.modes[*k].freq_hz(),
+                    new.modes[*k].freq_hz()
                 )
             });
-            d.insert("freq_hz".into(), json!(new.modes[k].freq_hz()));
+            d.insert("freq_hz".into(), json!(new.modes[*k].freq_hz()));
             d.insert("mode".into(), json!(k));
-            let mut t = map_models(twin, |pm| {
-                let mut pm = pm.clone();
-                pm.channels.extend(fitted.iter().map(zeros));
-                crate::modal_update::apply_change(&mut pm, &m0, &new, 1.0);
-                pm
-            });
-            t.channels.extend(fitted.iter().map(|c| c.channel));
-            t.channels.sort();
-            (c, t)
+            *c
         }
         None => {
             d.insert("freq_hz".into(), json!(peak_f));
-            let mut t = map_models(twin, |pm| {
-                let mut pm = pm.clone();
-                pm.channels.extend(fitted.iter().cloned());
-                pm
-            });
-            t.channels.extend(fitted.iter().map(|c| c.channel));
-            t.channels.sort();
-            (chi_num, t)
+            chi_num
         }
     };
+    // every pose gains the missing channels: with the turned mode's change, or with the
+    // numerators fitted here
+    let mut ext = map_models(twin, |pm| {
+        let mut pm = pm.clone();
+        match &turned {
+            Some((_, _, new)) => {
+                pm.channels.extend(fitted.iter().map(zeros));
+                crate::modal_update::apply_change(&mut pm, &m0, new, 1.0);
+            }
+            None => pm.channels.extend(fitted.iter().cloned()),
+        }
+        pm
+    });
+    ext.channels.extend(fitted.iter().map(|c| c.channel));
+    ext.channels.sort();
     Some(Cand {
         cause: Cause::CrossCoupling,
         chi: chi_c,
