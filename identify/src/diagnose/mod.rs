@@ -312,6 +312,48 @@ fn contradicted_by_held_out(band_tests: &[(f64, f64)], chi_loc: f64, min_gain: f
         && band_tests.iter().all(|&(_, gain)| gain <= min_gain)
 }
 
+/// How many times the relative misfit the FRF evidence implies in a band must exceed the
+/// one the held-out responses show there before the evidence counts as contradicted.
+const FRF_CONTRADICTION_RATIO: f64 = 2.0;
+
+/// The third octave around the largest residual (in standard errors) of `model`
+/// against `pts`, over the channels the model has.
+fn worst_residual_band(model: &ModalModel, pts: &[Points]) -> Option<(f64, f64)> {
+    let mut top: Option<(f64, f64)> = None;
+    for p in pts {
+        let Some(ci) = model.channel_index(p.channel) else {
+            continue;
+        };
+        for ((f, h), sg) in p.freqs_hz.iter().zip(&p.h).zip(&p.sigma) {
+            let r = ((h - model.eval_hz(ci, *f)) / sg).norm();
+            if top.is_none_or(|t| r > t.0) {
+                top = Some((r, *f));
+            }
+        }
+    }
+    let third = 2f64.powf(1.0 / 6.0);
+    top.map(|(_, f)| (f / third, f * third))
+}
+
+/// The fit \[%\] the FRF evidence implies for `model`'s response in `lo..hi` Hz:
+/// `1 − ‖H_evidence − H_model‖ / ‖H_evidence‖` over its lines there (the channels the
+/// model has), the frequency-domain form of the held-out band fit.
+fn frf_implied_band_fit(model: &ModalModel, pts: &[Points], (lo, hi): (f64, f64)) -> Option<f64> {
+    let (mut err, mut pow) = (0.0, 0.0);
+    for p in pts {
+        let Some(ci) = model.channel_index(p.channel) else {
+            continue;
+        };
+        for (f, h) in p.freqs_hz.iter().zip(&p.h) {
+            if *f >= lo && *f <= hi {
+                err += (h - model.eval_hz(ci, *f)).norm_sqr();
+                pow += h.norm_sqr();
+            }
+        }
+    }
+    (pow > 0.0).then(|| 100.0 * (1.0 - (err / pow).sqrt()))
+}
+
 /// The band where a candidate acts: the third octave around the mode it changes, adds
 /// or couples (and where it moves it), or none (a delay, tones: the whole response).
 fn action_band(c: &Cand) -> Option<(f64, f64)> {
@@ -694,6 +736,29 @@ pub fn diagnose(
             best = Some((i, s.fit_holdout_pct));
         }
     }
+    // The FRF evidence contradicted directly: where it misfits the twin most, the relative
+    // misfit it implies for the twin's response is more than twice the one the held-out
+    // responses show there
+    // (a multi-input estimate from nearly collinear milling forces can claim the twin
+    // misses a mode's response several times over while the held-out responses show it
+    // predicted), and no candidate predicts any band better: (band, implied, seen).
+    let direct_contradiction =
+        (best.is_none() && misfit && band_tests.iter().all(|t| t.1 <= opts.min_gain_pct))
+            .then(|| worst_residual_band(&model, &pts))
+            .flatten()
+            .and_then(|b| {
+                let implied = frf_implied_band_fit(&model, &pts, b)?;
+                let seen = held_out_twin.band_fit(b.0, b.1)?;
+                trace(|| {
+                    format!(
+                "  FRF-implied band fit {implied:.1} % vs held-out {seen:.1} % in {:.0}-{:.0} Hz",
+                b.0, b.1
+            )
+                });
+                (100.0 - implied >= FRF_CONTRADICTION_RATIO * (100.0 - seen).max(0.0))
+                    .then_some((b, implied, seen))
+            });
+    let by_candidates = contradicted_by_held_out(&band_tests, chi_loc, opts.min_gain_pct);
     // a nonlinearity whose linearised twin does not help keeps the twin as it was
     let twin_kept = matches!(best, Some((i, fit)) if cands[i].cause == Cause::Nonlinearity && fit <= fit_before);
     let (cause, mut details, ext, fit_after) = match best {
@@ -719,13 +784,20 @@ pub fn diagnose(
         // forces along x, y and z rise and fall together, so the estimate cannot tell the
         // channels apart at some lines; noise on the force biases it low), and the
         // responses the twin predicts are the machine's: no cause to name.
-        None if contradicted_by_held_out(&band_tests, chi_loc, opts.min_gain_pct) => {
+        None if by_candidates || direct_contradiction.is_some() => {
             let mut d = Map::new();
             let (lo, hi) = misfit_band(&model, &pts, band);
             d.insert("frf_misfit_band_hz".into(), json!([lo, hi]));
-            d.insert(
-                "frf_misfit_contradicted".into(),
-                json!(format!(
+            let why = match direct_contradiction.filter(|_| !by_candidates) {
+                Some(((a, b), implied, seen)) => format!(
+                    "the FRF estimated from these records misfits the twin between {lo:.0} and \
+                     {hi:.0} Hz (chi {chi0:.2}, local {chi_loc:.2}); where it misfits most \
+                     ({a:.0}-{b:.0} Hz) it implies that the twin predicts the responses at \
+                     {implied:.0} %, but the twin predicts the held-out responses there at \
+                     {seen:.1} %, and no candidate predicts them better anywhere: the \
+                     estimate, not the twin, is off"
+                ),
+                None => format!(
                     "the FRF estimated from these records misfits the twin between {lo:.0} and \
                      {hi:.0} Hz (chi {chi0:.2}, local {chi_loc:.2}), but each of the {} \
                      candidates that follow it predicts the held-out responses worse where \
@@ -735,8 +807,9 @@ pub fn diagnose(
                         .iter()
                         .map(|t| t.1)
                         .fold(f64::NEG_INFINITY, f64::max)
-                )),
-            );
+                ),
+            };
+            d.insert("frf_misfit_contradicted".into(), json!(why));
             (Cause::None, d, twin.clone(), fit_before)
         }
         None => {
