@@ -2,7 +2,7 @@
 //! the model edits and refits they are built from.
 
 use super::Cause;
-use crate::axis::Axis;
+use crate::axis::{Axis, Channel};
 use crate::error::Result;
 use crate::modal_update::{update_modes, Points, Prior};
 use crate::model::{ChannelModel, ModalModel, Mode, ModeNum};
@@ -34,6 +34,24 @@ pub(super) fn dominant_axis(model: &ModalModel, k: usize) -> Axis {
             g(a).total_cmp(&g(b))
         })
         .map_or(Axis::X, |c| c.channel.output)
+}
+
+/// The largest residual of `model` against `pts` (in standard errors) over the channels
+/// the model has: (its size, frequency \[Hz\], channel).
+pub(super) fn largest_residual(model: &ModalModel, pts: &[Points]) -> Option<(f64, f64, Channel)> {
+    let mut peak: Option<(f64, f64, Channel)> = None;
+    for p in pts {
+        let Some(ci) = model.channel_index(p.channel) else {
+            continue;
+        };
+        for ((f, h), sg) in p.freqs_hz.iter().zip(&p.h).zip(&p.sigma) {
+            let r = ((h - model.eval_hz(ci, *f)) / sg).norm();
+            if peak.is_none_or(|b| r > b.0) {
+                peak = Some((r, *f, p.channel));
+            }
+        }
+    }
+    peak
 }
 
 /// Linear least squares of a channel's numerators with fixed poles, without a residual

@@ -319,20 +319,8 @@ const FRF_CONTRADICTION_RATIO: f64 = 2.0;
 /// The third octave around the largest residual (in standard errors) of `model`
 /// against `pts`, over the channels the model has.
 fn worst_residual_band(model: &ModalModel, pts: &[Points]) -> Option<(f64, f64)> {
-    let mut top: Option<(f64, f64)> = None;
-    for p in pts {
-        let Some(ci) = model.channel_index(p.channel) else {
-            continue;
-        };
-        for ((f, h), sg) in p.freqs_hz.iter().zip(&p.h).zip(&p.sigma) {
-            let r = ((h - model.eval_hz(ci, *f)) / sg).norm();
-            if top.is_none_or(|t| r > t.0) {
-                top = Some((r, *f));
-            }
-        }
-    }
     let third = 2f64.powf(1.0 / 6.0);
-    top.map(|(_, f)| (f / third, f * third))
+    candidate::largest_residual(model, pts).map(|(_, f, _)| (f / third, f * third))
 }
 
 /// The fit \[%\] the FRF evidence implies for `model`'s response in `lo..hi` Hz:

@@ -1,6 +1,6 @@
 //! Cause `unmodeled_mode`: a mode added at the largest residual peak.
 
-use super::candidate::{map_models, Cand};
+use super::candidate::{largest_residual, map_models, Cand};
 use super::Cause;
 use crate::axis::Channel;
 use crate::modal_update::{chi, update_modes, Points, Prior};
@@ -83,20 +83,7 @@ fn new_mode_cand(
 /// `model` with a mode added at the largest residual peak of `pts` (in standard
 /// errors) and fitted there: (the model, the new mode's index, the peak's channel).
 fn add_mode_at_peak(model: &ModalModel, pts: &[Points]) -> Option<(ModalModel, usize, Channel)> {
-    // largest residual peak (in standard errors) over the channels the model has
-    let mut peak: Option<(f64, f64, Channel)> = None;
-    for p in pts {
-        let Some(ci) = model.channel_index(p.channel) else {
-            continue;
-        };
-        for ((f, h), sg) in p.freqs_hz.iter().zip(&p.h).zip(&p.sigma) {
-            let r = ((h - model.eval_hz(ci, *f)) / sg).norm();
-            if peak.is_none_or(|b| r > b.0) {
-                peak = Some((r, *f, p.channel));
-            }
-        }
-    }
-    let (_, f0, ch) = peak?;
+    let (_, f0, ch) = largest_residual(model, pts)?;
     let mut m = model.clone();
     m.modes.push(Mode::from_hz(f0, 0.02));
     let k = m.modes.len() - 1;
