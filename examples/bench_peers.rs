@@ -597,6 +597,9 @@ fn main() -> Res<()> {
             other => return Err(format!("MTWIN_BENCH_ONLY={other}: expected a..h").into()),
         };
         println!("{}", serde_json::to_string(&v["mtwin"])?);
+        if let (Some(n), Some(f)) = (v.get("nfft"), v.get("natural_freqs_hz")) {
+            println!("nfft {n}, natural frequencies (Hz) {f}");
+        }
         if let Some(floor) = v.get("fft_floor") {
             println!("FFT floor: {floor}");
         }

@@ -117,6 +117,9 @@ struct PoseFit {
     /// With the force directions fitted separately ([`separate_directions`]): one
     /// model per direction, over that direction's channels of `fitted`.
     parts: Vec<DirectionFit>,
+    /// Channels the campaign keeps that this pose's data show no coherent response in:
+    /// not in `fitted`, stored with zero numerators.
+    held: Vec<crate::axis::Channel>,
 }
 
 /// The fit of one force direction of a pose (see [`separate_directions`]).
@@ -177,6 +180,23 @@ fn separate_directions(
     } else {
         Vec::new()
     }
+}
+
+/// Adds `channels` to `model` with zero numerators and residual, in the channel order of
+/// every pose model (by input, then output).
+fn add_zero_channels(model: &mut ModalModel, channels: &[crate::axis::Channel]) {
+    for &channel in channels {
+        if model.channel_index(channel).is_none() {
+            model.channels.push(crate::model::ChannelModel {
+                channel,
+                num: vec![crate::model::ModeNum { b0: 0.0, b1: 0.0 }; model.modes.len()],
+                d: 0.0,
+            });
+        }
+    }
+    model
+        .channels
+        .sort_by_key(|c| (c.channel.input.index(), c.channel.output.index()));
 }
 
 /// One model of the modes of every part, in part order (the modes of part 0, then of
@@ -686,6 +706,30 @@ pub fn identify_frfs(
         .into_par_iter()
         .map(|m| {
             let mut plan = plan_pose(&m.frf, &m.facts, opts.fit.band_hz, &excluded);
+            // a channel the campaign keeps (coherent at most poses) is in every pose model,
+            // also where this pose's own data show no coherent response: there it steers
+            // nothing and is stored as zero, the level below the noise (pose models with
+            // other channels than their neighbours cannot be interpolated; numerators
+            // fitted to noise alone reached 10x the measured FRF)
+            let mut held: Vec<crate::axis::Channel> = Vec::new();
+            if total > 1 && !plan.channels.iter().all(|d| !d.used) {
+                for d in plan.channels.iter_mut() {
+                    if !d.used && !excluded.contains(&d.channel) {
+                        let kept_at = first
+                            .iter()
+                            .filter(|p| p.channels.iter().any(|c| c.channel == d.channel && c.used))
+                            .count();
+                        d.used = true;
+                        d.reason = format!(
+                            "{}; kept for the campaign (coherent at {kept_at} of {total} poses): \
+                             stored as zero at this pose (below the noise)",
+                            d.reason
+                                .replacen("not identified (no coherent response): ", "", 1)
+                        );
+                        held.push(d.channel);
+                    }
+                }
+            }
             if let Some((lo, hi, q)) = common_band {
                 let (a, b) = (
                     lo.max(*m.frf.freqs_hz.first().unwrap_or(&lo)),
@@ -717,9 +761,13 @@ pub fn identify_frfs(
                 }
                 crate::plan::steering_channels(&plan)
             } else {
-                plan.used_channels()
+                let mut u = plan.used_channels();
+                u.retain(|c| !held.contains(c));
+                u
             };
-            let fitted = select_channels(&m.frf, &plan.used_channels());
+            let mut fitting = plan.used_channels();
+            fitting.retain(|c| !held.contains(c));
+            let fitted = select_channels(&m.frf, &fitting);
             let options = FitOptions {
                 band_hz: Some((plan.band_hz[0], plan.band_hz[1])),
                 // a windowed Welch estimate biases sharp peaks: no local order check there
@@ -834,6 +882,7 @@ pub fn identify_frfs(
                 warnings,
                 diagram: res.diagram,
                 parts,
+                held,
             })
         })
         .collect();
@@ -1000,6 +1049,9 @@ fn finish_campaign(
         for f in fits.iter_mut() {
             f.plan.alternatives.extend(notes.iter().cloned());
         }
+    }
+    for f in fits.iter_mut().filter(|f| !f.held.is_empty()) {
+        add_zero_channels(&mut f.model, &f.held);
     }
     let diagrams: Vec<StabilizationDiagram> = fits.iter().map(|f| f.diagram.clone()).collect();
     let poses: Vec<PoseModel> = fits

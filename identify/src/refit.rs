@@ -471,6 +471,15 @@ fn region_of(model: &ModalModel, k: usize) -> (f64, f64) {
     (f - reach, f + reach)
 }
 
+/// Whether the resonance regions ([`region_of`]) of modes `k` and `j` overlap in either
+/// fold's model.
+fn regions_overlap(models: &[ModalModel; 2], k: usize, j: usize) -> bool {
+    models.iter().any(|m| {
+        let (a, b) = (region_of(m, k), region_of(m, j));
+        a.0 <= b.1 && b.0 <= a.1
+    })
+}
+
 /// Squared normalised misfit of `model` over the points of `pts` inside any of `regions`,
 /// and their count.
 fn misfit_in(model: &ModalModel, pts: &[Points], regions: &[(f64, f64)]) -> (f64, usize) {
@@ -581,6 +590,10 @@ struct Selection {
 /// a gain on a handful of points is noise. Wear usually changes one or two modes; freeing
 /// every excited mode lets the unchanged ones absorb estimation noise and model
 /// discrepancy, which costs accuracy against the truth — held-out data show that.
+/// A candidate without a significant local gain in one round is tried again only when
+/// the mode freed since resonates where it does (elsewhere the freed mode leaves its
+/// local misfit as it was): the selection costs about one update per candidate plus its
+/// neighbours', not one per candidate and round.
 /// `None` without usable held-out data (no split, or a half without points).
 fn validated_selection(
     old: &ModalModel,
@@ -600,12 +613,20 @@ fn validated_selection(
         refused_at_bound: Vec::new(),
     };
     let debug = std::env::var_os("MTWIN_DEBUG_REFIT").is_some();
+    // candidates whose last trial showed no significant local gain, and the mode freed
+    // since: such a candidate is tried again only where that mode resonates
+    let mut insignificant: Vec<usize> = Vec::new();
+    let mut freed: Option<usize> = None;
     loop {
         let mut round: Option<(usize, HeldOutFit)> = None;
         let open: Vec<usize> = candidates
             .iter()
             .copied()
             .filter(|k| !sel.free.contains(k) && !sel.refused_at_bound.contains(k))
+            .filter(|k| {
+                !insignificant.contains(k)
+                    || freed.is_some_and(|j| regions_overlap(&current.models, *k, j))
+            })
             .collect();
         for k in open {
             let mut f = sel.free.clone();
@@ -635,6 +656,10 @@ fn validated_selection(
                     if ok { "" } else { " (not significant)" }
                 );
             }
+            insignificant.retain(|&j| j != k);
+            if !ok {
+                insignificant.push(k);
+            }
             if ok && round.as_ref().is_none_or(|(_, b)| h.chi < b.chi) {
                 round = Some((k, h));
             }
@@ -643,6 +668,7 @@ fn validated_selection(
         if h.chi > current.chi * (1.0 - MIN_MISFIT_GAIN) {
             break;
         }
+        freed = Some(k);
         sel.free.push(k);
         sel.free.sort_unstable();
         sel.chi_after = h.chi;
