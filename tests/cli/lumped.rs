@@ -193,13 +193,17 @@ fn campaign_files(dir: &Path, machine: &Machine, seed0: u64) -> (Vec<[f64; 3]>, 
 /// of the 18 poses: the campaign keeps that channel, so every pose model carries it
 /// (before, identify failed: "the model at pose ... has other modes or channels than the
 /// first pose"). Where a pose's own data show no coherent response it is stored as zero
-/// and steers nothing, and the plan says so.
+/// and steers nothing, and the plan says so. The poses' own orders differ (y direction:
+/// 3 to 20 modes): the twin kept is the one of the campaign's variants that fits the
+/// measured poses best, judged against the analytic receptance here (xx, yy, 150-2500
+/// Hz; with the own orders only: mean 93.8 %, worst 86.3 %).
 #[test]
 fn lumped_campaign_keeps_a_channel_coherent_at_some_poses_in_every_pose_model() {
     use identify::axis::{Axis, Channel};
     let dir = tmp();
     let machine = Machine::random(2);
-    let (_, files) = campaign_files(dir.path(), &machine, 2000);
+    let setup = Setup::impact();
+    let (grid, files) = campaign_files(dir.path(), &machine, 2000);
     let twin_path = dir.path().join("twin.json");
     let mut args = vec!["identify", "-q"];
     args.extend(files.iter().map(|p| s(p)));
@@ -232,6 +236,20 @@ fn lumped_campaign_keeps_a_channel_coherent_at_some_poses_in_every_pose_model() 
     assert!(
         held > 0 && fitted > held,
         "zy held at {held}, fitted at {fitted} poses"
+    );
+    let fits: Vec<f64> = (grid.iter())
+        .flat_map(|&p| {
+            [(0, 0), (1, 1)].map(|c| {
+                twin_vs_loaded_truth(&twin, &machine, p, c, (150.0, 2500.0), setup.tip_mass)
+            })
+        })
+        .collect();
+    let mean = fits.iter().sum::<f64>() / fits.len() as f64;
+    let worst = fits.iter().cloned().fold(f64::INFINITY, f64::min);
+    eprintln!("lumped random machine 2, campaign vs truth: mean {mean:.2} %, worst {worst:.2} %");
+    assert!(
+        mean >= 95.0 && worst >= 90.0,
+        "measured poses vs truth: mean {mean:.2} %, worst {worst:.2} %"
     );
     // the twin answers between the poses too
     let o = mtwin(&[
