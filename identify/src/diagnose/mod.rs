@@ -640,6 +640,8 @@ pub fn diagnose(
     // acts, without predicting the whole response worse, is named.
     // the band tests below: (local χ after, band gain) of each candidate scored in a band
     let mut band_tests: Vec<(f64, f64)> = Vec::new();
+    // (candidate, local χ after, band gain) of the band tests
+    let mut tested: Vec<(usize, f64, f64)> = Vec::new();
     if best.is_none() && misfit {
         let mut by_band: Option<(usize, f64)> = None;
         for (i, c) in cands.iter().enumerate() {
@@ -660,6 +662,7 @@ pub fn diagnose(
             let removes_local = loc < 0.5 * chi_loc || loc < opts.chi_local;
             let gain = y - x;
             band_tests.push((loc, gain));
+            tested.push((i, loc, gain));
             trace(|| {
                 format!(
                     "  band test {}: local chi {chi_loc:.2} -> {loc:.2}, band gain {gain:.2}",
@@ -675,6 +678,29 @@ pub fn diagnose(
             }
         }
         best = by_band.map(|(i, _)| (i, scores[i].fit_holdout_pct));
+        // Of a new mode and a retune of the twin's mode in the same band, the retune is
+        // named when it predicts the held-out responses there at least as well and
+        // lowers the local misfit too: it has fewer parameters, and a mode whose damping
+        // grew at an unchanged frequency is imitated by an added mode beside it (second
+        // generator, damping x1.7 at 566 Hz: new mode band gain 16.7, retune 18.4).
+        if let Some((b, _)) = best.filter(|b| cands[b.0].cause == Cause::UnmodeledMode) {
+            let gain_of = |i: usize| tested.iter().find(|t| t.0 == i).map(|t| t.2);
+            let overlaps = |i: usize| match (band_fits[i], band_fits[b]) {
+                (Some(((a0, a1), _, _)), Some(((b0, b1), _, _))) => a0 < b1 && b0 < a1,
+                _ => false,
+            };
+            let retune = tested.iter().find(|&&(i, loc, gain)| {
+                cands[i].cause == Cause::ModeChange
+                    && overlaps(i)
+                    && loc < chi_loc
+                    && gain > BAND_GAIN_PCT
+                    && gain_of(b).is_some_and(|g| gain >= g)
+                    && scores[i].fit_holdout_pct >= fit_before - opts.min_gain_pct
+            });
+            if let Some(&(i, _, _)) = retune {
+                best = Some((i, scores[i].fit_holdout_pct));
+            }
+        }
     }
     // A "new" mode at the frequency of a mode the twin has, whose retune shows that mode
     // turned into another axis, is that mode's cross coupling (an added twin of an
