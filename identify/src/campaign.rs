@@ -892,49 +892,25 @@ pub fn identify_frfs(
             .partial_cmp(&(b.pose[2], b.pose[1], b.pose[0]))
             .unwrap_or(std::cmp::Ordering::Equal)
     });
+    let build = |fits: Vec<PoseFit>, judge: Judge| {
+        build_twin(fits, &directions, opts, &all_sources, n_sources, judge)
+    };
     if total < 3 || opts.fit.n_modes.is_some() {
-        return build_twin(
-            fits,
-            &directions,
-            opts,
-            &all_sources,
-            n_sources,
-            Judge::AllChannels,
-        );
+        return build(fits, Judge::AllChannels);
     }
     // Tracking one mode set over poses whose own automatic orders differ can cost the
     // measured poses their fit (lumped machines: 61-91 % vs the truth where the poses
     // alone reach 95-98 %), and which remedy helps depends on the machine. So the twin
     // is built three ways and the one whose measured poses fit their own measured
-    // receptance best (direct channels; on three lumped machines this ranked the
-    // variants as their fit against the truth did) is kept: the poses' own orders, the
-    // poses fitted again at the campaign's common order, and that with the tracking
-    // judged by the direct channels only.
+    // receptance best (direct channels; on five lumped machines this picked the variant
+    // closest to the truth) is kept: the poses' own orders, the poses fitted again at
+    // the campaign's common order, and that with the tracking judged by the direct
+    // channels only.
     let mut common = fits.clone();
     let refitted = refit_at_common_order(&mut common, opts)?;
-    let mut variants = vec![(
-        "own orders",
-        build_twin(
-            fits,
-            &directions,
-            opts,
-            &all_sources,
-            n_sources,
-            Judge::AllChannels,
-        )?,
-    )];
+    let mut variants = vec![("own orders", build(fits, Judge::AllChannels)?)];
     if refitted > 0 {
-        variants.push((
-            "common order",
-            build_twin(
-                common.clone(),
-                &directions,
-                opts,
-                &all_sources,
-                n_sources,
-                Judge::AllChannels,
-            )?,
-        ));
+        variants.push(("common order", build(common.clone(), Judge::AllChannels)?));
     }
     variants.push((
         if refitted > 0 {
@@ -942,14 +918,7 @@ pub fn identify_frfs(
         } else {
             "tracking judged by the direct channels"
         },
-        build_twin(
-            common,
-            &directions,
-            opts,
-            &all_sources,
-            n_sources,
-            Judge::Direct,
-        )?,
+        build(common, Judge::Direct)?,
     ));
     // the mean, the worst pose and the leave-one-pose-out mean count alike: a variant that
     // gains a point on average but wrecks one pose (lumped seed 4: worst 87 -> 73 % vs the
