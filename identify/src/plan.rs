@@ -352,6 +352,41 @@ pub fn campaign_exclusions(plans: &[PosePlan]) -> Vec<Channel> {
         .collect()
 }
 
+/// Channels of `plan` (one pose of a campaign whose first plans are `plans`) that the
+/// campaign keeps ([`campaign_exclusions`] did not leave them out) but this pose's data
+/// show no coherent response in: marked used and said to be stored as zero here, so that
+/// every pose model has the same channels (pose models with other channels than their
+/// neighbours cannot be interpolated; numerators fitted to noise alone reached 10x the
+/// measured FRF). Returned for the fit to leave out and the twin to fill with zeros.
+/// None when no channel of the pose passed (then all are used anyway).
+pub fn hold_campaign_channels(
+    plan: &mut PosePlan,
+    plans: &[PosePlan],
+    excluded: &[Channel],
+) -> Vec<Channel> {
+    let mut held = Vec::new();
+    if plan.channels.iter().all(|d| !d.used) {
+        return held;
+    }
+    for d in plan.channels.iter_mut() {
+        if !d.used && !excluded.contains(&d.channel) {
+            let kept_at = (plans.iter())
+                .filter(|p| p.channels.iter().any(|c| c.channel == d.channel && c.used))
+                .count();
+            d.used = true;
+            d.reason = format!(
+                "{}; kept for the campaign (coherent at {kept_at} of {} poses): stored as \
+                 zero at this pose (below the noise)",
+                d.reason
+                    .replacen("not identified (no coherent response): ", "", 1),
+                plans.len()
+            );
+            held.push(d.channel);
+        }
+    }
+    held
+}
+
 /// `frf` with only `channels` (in its own order).
 pub fn select_channels(frf: &Frf, channels: &[Channel]) -> Frf {
     Frf {

@@ -638,9 +638,8 @@ pub fn diagnose(
     // acceleration record). A candidate that removes the local misfit in the FRF
     // evidence and predicts the held-out response clearly better in the band where it
     // acts, without predicting the whole response worse, is named.
-    // the band tests below: (local χ after, band gain) of each candidate scored in a band
-    let mut band_tests: Vec<(f64, f64)> = Vec::new();
-    // (candidate, local χ after, band gain) of the band tests
+    // the band tests below: (candidate, local χ after, band gain) of each candidate
+    // scored in a band
     let mut tested: Vec<(usize, f64, f64)> = Vec::new();
     if best.is_none() && misfit {
         let mut by_band: Option<(usize, f64)> = None;
@@ -661,7 +660,6 @@ pub fn diagnose(
             );
             let removes_local = loc < 0.5 * chi_loc || loc < opts.chi_local;
             let gain = y - x;
-            band_tests.push((loc, gain));
             tested.push((i, loc, gain));
             trace(|| {
                 format!(
@@ -702,6 +700,7 @@ pub fn diagnose(
             }
         }
     }
+    let band_tests: Vec<(f64, f64)> = tested.iter().map(|&(_, loc, gain)| (loc, gain)).collect();
     // A "new" mode at the frequency of a mode the twin has, whose retune shows that mode
     // turned into another axis, is that mode's cross coupling (an added twin of an
     // existing mode fits the same data with more parameters).
