@@ -9,7 +9,8 @@
 //! machine shared with other work, wall times measure the load as much as the code.
 //!
 //! Run: `cargo bench -p identify --bench spectra` (only the on-CPU ratio:
-//! `cargo bench -p identify --bench spectra -- none`).
+//! `cargo bench -p identify --bench spectra -- none`; `MTWIN_SPECTRA_RUNS` interleaved
+//! runs, 100 unless set).
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use identify::axis::Axis;
@@ -147,7 +148,10 @@ fn bench(c: &mut Criterion) {
         floor.segs,
         floor.cols.len()
     );
-    let runs = 60;
+    let runs = std::env::var("MTWIN_SPECTRA_RUNS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(100);
     let cpu = pool.install(|| {
         on_cpu_ms(
             runs,
