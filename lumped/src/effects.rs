@@ -20,7 +20,7 @@
 //! | `pose_dependence` | a guideway's stiffness changing 100–200 %/m along its axis | impact x, y at centre ± span | `axis_of_variation`, `freq_shift_pct_per_m` (+ nominal rate, mode) |
 //! | `nonlinearity` | hardening cubic spring in a screw or guide | one impact record, hits at 3 force levels | `freq_hz`, `kind`, `axis` |
 //! | `time_delay` | responses 2–6 samples late | impact x, y | `delay_s` |
-//! | `cross_coupling` | a guideway turned 15–30° | impact x, y | `channel`, `freq_hz` |
+//! | `cross_coupling` | a guideway turned 15–30°, drawn until a cross channel's peak at least doubles (a coupling the healthy machine lacks) | impact x, y | `channel`, `freq_hz` |
 //! | `disturbance` | 1–2 sinusoids entering through the bed, 15–40 % of the response RMS | milling at 2 speeds | `freq_hz` (list) |
 
 use crate::excitation::{Hammer, Hit, Milling};
@@ -139,6 +139,11 @@ pub struct Case {
 }
 
 const AX: [&str; 3] = ["x", "y", "z"];
+
+/// Smallest ratio of a cross channel's peak after a guideway turned to its peak on the
+/// healthy machine for the turn to count as a cross coupling (SPEC: a response "that the
+/// twin lacks").
+const NEW_CHANNEL_PEAK_RATIO: f64 = 2.0;
 
 /// Modes at the TCP worth naming: within 40–3000 Hz and with a direct-channel peak of at
 /// least `rel` of the largest one.
@@ -567,8 +572,9 @@ pub fn case_with(base: &Machine, effect: Effect, seed: u64, o: &CaseOptions) -> 
                 .collect();
             let old = base.analytic_frf(CENTRE, &freqs);
             // draws until the new cross channel is observed at its named mode in the
-            // case's own test (module docs); the last draw if none is
+            // case's own test (module docs); the best observed draw if none is
             let mut draw = 0;
+            let mut kept = None;
             loop {
                 draw += 1;
                 let &(joint, axis) = choices.choose(&mut rng).unwrap_or(&choices[0]);
@@ -586,6 +592,13 @@ pub fn case_with(base: &Machine, effect: Effect, seed: u64, o: &CaseOptions) -> 
                 };
                 let mut best = (0.0, 0usize, 0usize, 0usize);
                 for (o_, i_) in [(1usize, 0usize), (2, 0), (2, 1)] {
+                    // a coupling the healthy machine (and so its twin) lacks: the
+                    // channel's peak at least doubles (a turned ram guide mostly moves
+                    // the x-z mode the healthy machine already couples: its zx peak
+                    // stayed within 0.96-1.2 times, a mode change, not a new channel)
+                    if peak(&new, o_, i_) < NEW_CHANNEL_PEAK_RATIO * peak(&old, o_, i_) {
+                        continue;
+                    }
                     let scale = (peak(&new, o_, o_) * peak(&new, i_, i_)).sqrt();
                     for (l, (a, b)) in old.h.iter().zip(&new.h).enumerate() {
                         let gain = (b[(o_, i_)].norm() - a[(o_, i_)].norm()) / scale;
@@ -595,6 +608,11 @@ pub fn case_with(base: &Machine, effect: Effect, seed: u64, o: &CaseOptions) -> 
                     }
                 }
                 let (gain, o_, i_, l) = best;
+                // (every draw of the choices rotates some channel into a new one; the
+                // cap only bounds the loop)
+                if gain <= 0.0 && draw < 300 {
+                    continue;
+                }
                 // name the mode nearest the largest increase
                 let after = machine.modes(CENTRE);
                 let f_at = freqs[l];
@@ -624,10 +642,19 @@ pub fn case_with(base: &Machine, effect: Effect, seed: u64, o: &CaseOptions) -> 
                 let (fr, coh) = impact_coherence(&recs[i_.min(1)].1, i_);
                 let seen = crate::observe::coherence_near(&fr, &coh[o_], fm);
                 details.insert("cross_coherence".into(), json!(round(seen, 3)));
-                if seen >= OBSERVED_COHERENCE || draw >= 30 {
+                if seen >= OBSERVED_COHERENCE {
                     break recs;
                 }
+                if kept.as_ref().is_none_or(|k: &(f64, _, _, _)| seen > k.0) {
+                    kept = Some((seen, details.clone(), recs, machine.clone()));
+                }
                 details.clear();
+                if draw >= 60 {
+                    // none observed: the best observed draw
+                    let (_, d, recs, m) = kept.take().expect("a draw kept");
+                    (details, machine) = (d, m);
+                    break recs;
+                }
             }
         }
         Effect::Disturbance => {

@@ -141,6 +141,25 @@ pub(super) fn retune(
     update_modes(model, &[k], pts, prior, 40)
 }
 
+/// [`retune`] with the posterior standard deviation of the mode's `[ln ω, ln ζ]`
+/// ([`UpdateResult::posterior_sd`](crate::modal_update::UpdateResult)).
+pub(super) fn retune_with_sd(
+    model: &ModalModel,
+    k: usize,
+    pts: &[Points],
+) -> Result<crate::modal_update::UpdateResult> {
+    let opts = crate::modal_update::UpdateOptions {
+        prior: Prior {
+            ln_wn: 0.3,
+            ..Prior::default()
+        },
+        max_iter: 40,
+        posterior: true,
+        ..crate::modal_update::UpdateOptions::default()
+    };
+    crate::modal_update::update_modes_with(model, &[k], pts, &opts)
+}
+
 /// The points of `pts` between `lo` and `hi` Hz.
 pub(super) fn near_points(pts: &[Points], lo: f64, hi: f64) -> Vec<Points> {
     pts.iter()

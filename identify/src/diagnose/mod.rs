@@ -653,17 +653,33 @@ pub fn diagnose(
             let Ok(mut e) = TwinEvaluator::new(&c.twin) else {
                 continue;
             };
-            let loc = chi_local(
-                e.model_at(pose),
-                &pts,
-                c.twin.extensions.delay_s.unwrap_or(delay0),
-            );
-            let removes_local = loc < 0.5 * chi_loc || loc < opts.chi_local;
+            // a pose dependence is judged pose by pose (its own points and model at each
+            // data pose): at the data's mean pose its per-pose changes average out
+            let per_pose = (c.cause == Cause::PoseDependence)
+                .then(|| {
+                    c.details
+                        .get("local_chi_per_pose")
+                        .and_then(Value::as_array)
+                })
+                .flatten()
+                .and_then(|v| Some((v.first()?.as_f64()?, v.get(1)?.as_f64()?)));
+            let (loc, before) = match per_pose {
+                Some((b, a)) => (a, b),
+                None => (
+                    chi_local(
+                        e.model_at(pose),
+                        &pts,
+                        c.twin.extensions.delay_s.unwrap_or(delay0),
+                    ),
+                    chi_loc,
+                ),
+            };
+            let removes_local = loc < 0.5 * before || loc < opts.chi_local;
             let gain = y - x;
             tested.push((i, loc, gain));
             trace(|| {
                 format!(
-                    "  band test {}: local chi {chi_loc:.2} -> {loc:.2}, band gain {gain:.2}",
+                    "  band test {}: local chi {before:.2} -> {loc:.2}, band gain {gain:.2}",
                     c.cause
                 )
             });
