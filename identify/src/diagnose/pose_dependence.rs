@@ -42,12 +42,11 @@ pub(super) fn cand_pose_dependence(
     }
     let n_modes = per[0].1.modes.len();
     // relative frequency shift of mode k at each pose, with the updated models; the mode
-    // chosen is the one whose shifts differ across the poses most significantly (their
-    // scatter about the precision-weighted mean, in posterior standard deviations): a
-    // mode identified loosely (few coherent lines, a neighbour) wanders by a few per cent
-    // from pose to pose at random, and its plain spread outranked a mode that truly moves
-    // with the pose (lumped generator, guide stiffness along z: a 453 Hz mode's noisy
-    // -2.5 % beat the 928 Hz mode's +-1.5 %)
+    // chosen is the one whose shifts spread most across the poses among those whose
+    // scatter about their precision-weighted mean is significant (at least POSE_MIN_Z
+    // posterior standard deviations; the largest spread of all when none is): a mode
+    // identified loosely (few coherent lines, a close neighbour) wanders from pose to pose
+    // at random
     let mut best: Option<(f64, f64, usize, Vec<f64>)> = None;
     for k in 0..n_modes {
         let mut shifts = Vec::new();
@@ -62,10 +61,13 @@ pub(super) fn cand_pose_dependence(
             let (f0, f1) = (m0.modes[k].freq_hz(), r.model.modes[k].freq_hz());
             let near = near_points(pts, 0.9 * f0.min(f1), 1.1 * f0.max(f1));
             let shift = f1 / f0 - 1.0;
-            // (a retune that lands within another mode's half-power band (at least 1 %)
-            // jumped onto that mode's resonance: 452 -> 574 Hz beside a 571 Hz mode)
-            let jumped = (m0.modes.iter().enumerate())
-                .any(|(j, m)| j != k && (f1 / m.freq_hz() - 1.0).abs() < m.zeta.max(0.01));
+            // (a retune that moves more than JUMP_MIN_SHIFT and lands within another
+            // mode's half-power band (at least 1 %) jumped onto that mode's resonance: 452
+            // -> 574 Hz beside a 571 Hz mode; a smaller move next to a neighbour is a
+            // shift: the first generator's 180 Hz mode moving 5.4 % per pose)
+            let jumped = shift.abs() > JUMP_MIN_SHIFT
+                && (m0.modes.iter().enumerate())
+                    .any(|(j, m)| j != k && (f1 / m.freq_hz() - 1.0).abs() < m.zeta.max(0.01));
             if shift.abs() >= 0.3 || jumped || chi(&r.model, &near, 0.0) > 0.9 * chi(m0, &near, 0.0)
             {
                 shifts.push(0.0);
@@ -85,13 +87,13 @@ pub(super) fn cand_pose_dependence(
                 sds.iter().map(|s| 100.0 * s).collect::<Vec<_>>()
             )
         });
+        let significant = |z: f64| z >= POSE_MIN_Z;
         let better = match &best {
             None => true,
-            Some(b) => match (z.is_finite(), b.0.is_finite()) {
-                (true, true) => z > b.0,
+            Some(b) => match (significant(z), significant(b.0)) {
                 (true, false) => true,
                 (false, true) => false,
-                (false, false) => spread > b.1,
+                _ => spread > b.1,
             },
         };
         if better {
@@ -223,6 +225,13 @@ pub(super) fn cand_pose_dependence(
         per_record: Vec::new(),
     })
 }
+
+/// Scatter of a mode's per-pose shifts, in posterior standard deviations, from which it
+/// counts as moving with the pose.
+const POSE_MIN_Z: f64 = 3.0;
+
+/// Smallest relative move of a per-pose retune that can be a jump onto another mode.
+const JUMP_MIN_SHIFT: f64 = 0.1;
 
 /// The scatter of `shifts` about their precision-weighted mean in standard deviations
 /// (`sds`, one per shift): `sqrt(Σ ((s − s̄) / σ)²)`; NaN when a deviation is missing or
