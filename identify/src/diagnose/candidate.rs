@@ -134,11 +134,15 @@ pub(super) fn retune(
     k: usize,
     pts: &[Points],
 ) -> Result<crate::modal_update::UpdateResult> {
-    let prior = Prior {
+    update_modes(model, &[k], pts, retune_prior(), 40)
+}
+
+/// The prior of a retune: a mode's frequency may move by up to ~30 %.
+pub(super) fn retune_prior() -> Prior {
+    Prior {
         ln_wn: 0.3,
         ..Prior::default()
-    };
-    update_modes(model, &[k], pts, prior, 40)
+    }
 }
 
 /// [`retune`] with the posterior standard deviation of the mode's `[ln ω, ln ζ]`
@@ -149,10 +153,7 @@ pub(super) fn retune_with_sd(
     pts: &[Points],
 ) -> Result<crate::modal_update::UpdateResult> {
     let opts = crate::modal_update::UpdateOptions {
-        prior: Prior {
-            ln_wn: 0.3,
-            ..Prior::default()
-        },
+        prior: retune_prior(),
         max_iter: 40,
         posterior: true,
         ..crate::modal_update::UpdateOptions::default()

@@ -1,6 +1,6 @@
 //! Cause `mode_change`: the dominant changed mode retuned.
 
-use super::candidate::{dominant_axis, map_models, retune, Cand};
+use super::candidate::{dominant_axis, map_models, retune, retune_prior, Cand};
 use super::Cause;
 use crate::axis::Channel;
 use crate::modal_update::{chi, Points};
@@ -38,10 +38,7 @@ pub(super) fn best_retune(model: &ModalModel, pts: &[Points]) -> Option<(f64, us
                     .total_cmp(&(f(model, b) - f(model, k)).abs())
             })
         {
-            let prior = crate::modal_update::Prior {
-                ln_wn: 0.3,
-                ..crate::modal_update::Prior::default()
-            };
+            let prior = retune_prior();
             if let Ok(r) = crate::modal_update::update_modes(model, &[k, j], pts, prior, 40) {
                 let moved = |i: usize| (f(&r.model, i) / f(model, i)).ln().abs();
                 let lead = if moved(j) > moved(k) { j } else { k };
