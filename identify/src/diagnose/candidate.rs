@@ -126,6 +126,11 @@ pub(super) struct Cand {
     /// When not empty: the twin to judge each record's held-out part with (one per
     /// record, in order), e.g. a disturbance's tones fitted per record.
     pub(super) per_record: Vec<Twin>,
+    /// The worst local misfit (χ over ±2.5 % of frequency) before and after, when the
+    /// candidate judges it itself: a pose dependence, each data pose's model against that
+    /// pose's own evidence (at the data's mean pose its per-pose changes average out).
+    /// `None`: judged on the pooled evidence at the data's pose.
+    pub(super) local_chi: Option<(f64, f64)>,
 }
 
 /// Mode `k` of `model` alone refitted to `pts` (frequency may move up to ~30 %).

@@ -116,5 +116,6 @@ pub(super) fn cand_cross_coupling(twin: &Twin, model: &ModalModel, pts: &[Points
         twin: ext,
         details: d,
         per_record: Vec::new(),
+        local_chi: None,
     })
 }

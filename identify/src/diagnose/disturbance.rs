@@ -248,6 +248,7 @@ pub(super) fn cand_disturbance(
         twin: ext,
         details: d,
         per_record,
+        local_chi: None,
     })
 }
 

@@ -653,17 +653,9 @@ pub fn diagnose(
             let Ok(mut e) = TwinEvaluator::new(&c.twin) else {
                 continue;
             };
-            // a pose dependence is judged pose by pose (its own points and model at each
-            // data pose): at the data's mean pose its per-pose changes average out
-            let per_pose = (c.cause == Cause::PoseDependence)
-                .then(|| {
-                    c.details
-                        .get("local_chi_per_pose")
-                        .and_then(Value::as_array)
-                })
-                .flatten()
-                .and_then(|v| Some((v.first()?.as_f64()?, v.get(1)?.as_f64()?)));
-            let (loc, before) = match per_pose {
+            // a candidate that judges its local misfit itself (a pose dependence, pose by
+            // pose) is taken at its word
+            let (loc, before) = match c.local_chi {
                 Some((b, a)) => (a, b),
                 None => (
                     chi_local(

@@ -82,6 +82,7 @@ pub(super) fn cand_mode_change(
             chi: c,
             details: d,
             per_record: Vec::new(),
+            local_chi: None,
         });
     }
     let mut d = Map::new();
@@ -97,6 +98,7 @@ pub(super) fn cand_mode_change(
         chi: c,
         details: d,
         per_record: Vec::new(),
+        local_chi: None,
     })
 }
 

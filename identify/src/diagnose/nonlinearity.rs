@@ -431,6 +431,7 @@ fn build_candidate(
         twin: ext,
         details: d,
         per_record: Vec::new(),
+        local_chi: None,
     })
 }
 

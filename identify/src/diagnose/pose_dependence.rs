@@ -131,13 +131,13 @@ pub(super) fn cand_pose_dependence(
     // before and after: the pooled evidence of all poses against one model cannot show
     // what per-pose frequencies remove
     let delay = twin.extensions.delay_s.unwrap_or(0.0);
-    let worst_local =
-        |ms: &mut dyn Iterator<Item = (&ModalModel, &Vec<crate::modal_update::Points>)>| {
-            ms.map(|(m, p)| crate::modal_update::chi_local(m, p, delay))
-                .fold(0.0, f64::max)
-        };
-    let local_before = worst_local(&mut per.iter().map(|p| (&p.1, &p.2)));
-    let local_after = worst_local(&mut models.iter().zip(per.iter().map(|p| &p.2)));
+    let worst_local = |ms: &[&ModalModel]| {
+        (ms.iter().zip(&per))
+            .map(|(m, p)| crate::modal_update::chi_local(m, &p.2, delay))
+            .fold(0.0, f64::max)
+    };
+    let local_before = worst_local(&per.iter().map(|p| &p.1).collect::<Vec<_>>());
+    let local_after = worst_local(&models.iter().collect::<Vec<_>>());
     // slope of the shift along each axis (simple regressions), pick the largest effect
     let n = per.len() as f64;
     let mut axis_best: Option<(f64, usize, f64)> = None;
@@ -227,6 +227,7 @@ pub(super) fn cand_pose_dependence(
         twin: ext,
         details: d,
         per_record: Vec::new(),
+        local_chi: Some((local_before, local_after)),
     })
 }
 

@@ -44,5 +44,6 @@ pub(super) fn cand_time_delay(
         twin: ext,
         details: d,
         per_record: Vec::new(),
+        local_chi: None,
     })
 }

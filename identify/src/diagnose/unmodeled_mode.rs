@@ -77,6 +77,7 @@ fn new_mode_cand(
         twin: ext,
         details: d,
         per_record: Vec::new(),
+        local_chi: None,
     }
 }
 
