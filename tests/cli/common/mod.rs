@@ -5,14 +5,16 @@ pub mod modal;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-/// `../shared/data` (the real measured data), also found via `MTWIN_SHARED`.
+/// `../shared/data` (the real measured data), or `$MTWIN_SHARED/data` when that is set
+/// (to run the tryout tests on another data set of the same form, e.g. one written by
+/// `cargo run --release -p lumped --example dump`).
 pub fn shared_data() -> PathBuf {
+    if let Ok(p) = std::env::var("MTWIN_SHARED") {
+        return PathBuf::from(p).join("data");
+    }
     let local = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data");
     if local.is_dir() {
         return local;
-    }
-    if let Ok(p) = std::env::var("MTWIN_SHARED") {
-        return PathBuf::from(p).join("data");
     }
     PathBuf::from("/work/shared/data")
 }
