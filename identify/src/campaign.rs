@@ -682,7 +682,7 @@ pub fn identify_frfs(
     // the plan: band and channels per pose, channels decided over the campaign
     let first: Vec<PosePlan> = measured
         .iter()
-        .map(|m| plan_pose(&m.frf, &m.facts, opts.fit.band_hz, &[]))
+        .map(|m| plan_pose(&m.frf, &m.facts, opts.fit.band_hz, &[], total == 1))
         .collect();
     let excluded = campaign_exclusions(&first);
     // one band for the campaign: poses whose own bands start at 42 Hz and at 138 Hz see
@@ -705,7 +705,7 @@ pub fn identify_frfs(
     let fits: Vec<Result<PoseFit>> = measured
         .into_par_iter()
         .map(|m| {
-            let mut plan = plan_pose(&m.frf, &m.facts, opts.fit.band_hz, &excluded);
+            let mut plan = plan_pose(&m.frf, &m.facts, opts.fit.band_hz, &excluded, total == 1);
             let held = if total > 1 {
                 crate::plan::hold_campaign_channels(&mut plan, &first, &excluded)
             } else {

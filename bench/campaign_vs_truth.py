@@ -1,0 +1,118 @@
+#!/usr/bin/env python3
+"""A campaign's twin against the analytic truth of a data set in the tryout form.
+
+    python bench/campaign_vs_truth.py DATA_DIR OUT_DIR [--lo HZ] [--hi HZ]
+
+DATA_DIR holds `campaign/*.csv` (impact records per pose, `gNN_x.csv`, `gNN_y.csv`) and
+`truth/*_loaded.csv` (analytic receptance with the sensor's mass, the pose in its first
+comment line; `truth/*.csv` where no loaded truth is given), as `../shared/data/tryout_gantry` and the second generator's dumps
+(`cargo run --release -p lumped --example dump -- --out DIR --seed N`) do. The twin is
+identified with default options only (`mtwin identify FILES --out OUT_DIR/twin.json`,
+reused when present), evaluated with `mtwin eval` at every pose of the truth, and its xx
+and yy receptance compared with the truth between --lo and --hi (30-2500 Hz) by the fit
+percentage `100 (1 - |t - e| / |t - mean t|)`; at measured poses also mtwin's own H1 of
+that pose's records (`mtwin frf`) against the same truth. Needs numpy (the project's
+.venv has it).
+"""
+import argparse
+import csv
+import glob
+import os
+import re
+import subprocess
+import sys
+
+import numpy as np
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+MTWIN = os.environ.get("MTWIN", os.path.join(ROOT, "target", "release", "mtwin"))
+
+
+def fit_pct(t, e):
+    return 100.0 * (1.0 - np.linalg.norm(t - e) / np.linalg.norm(t - t.mean()))
+
+
+def read(path):
+    pose, rows = None, []
+    with open(path) as fh:
+        for line in fh:
+            if line.startswith("#"):
+                m = re.search(r"pose=([-\d.]+),([-\d.]+),([-\d.]+)", line)
+                if m:
+                    pose = [float(x) for x in m.groups()]
+                continue
+            rows.append(line.strip())
+    return pose, list(csv.DictReader(rows))
+
+
+def channel(rows, c):
+    return np.array([complex(float(r[c + "_re"]), float(r[c + "_im"])) for r in rows])
+
+
+def on(f_to, f_from, h):
+    return np.interp(f_to, f_from, h.real) + 1j * np.interp(f_to, f_from, h.imag)
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("data")
+    ap.add_argument("out")
+    ap.add_argument("--lo", type=float, default=30.0)
+    ap.add_argument("--hi", type=float, default=2500.0)
+    a = ap.parse_args()
+    os.makedirs(a.out, exist_ok=True)
+    twin = os.path.join(a.out, "twin.json")
+    if not os.path.exists(twin):
+        files = sorted(glob.glob(os.path.join(a.data, "campaign", "*.csv")))
+        r = subprocess.run([MTWIN, "identify", "-q"] + files + ["--out", twin],
+                           capture_output=True, text=True)
+        if r.returncode:
+            sys.exit(r.stderr)
+    summary = {}
+    # with the sensor's mass where the data set gives it (what impact data can show)
+    truths = sorted(glob.glob(os.path.join(a.data, "truth", "*_loaded.csv")))
+    if not truths:
+        truths = [p for p in sorted(glob.glob(os.path.join(a.data, "truth", "*.csv")))
+                  if not os.path.basename(p).startswith("centre")]
+    for tp in truths:
+        name = os.path.basename(tp).replace("_loaded", "")[: -len(".csv")]
+        if name.startswith("centre"):
+            continue
+        pose, truth = read(tp)
+        f = np.array([float(r["f_hz"]) for r in truth])
+        sel = (f >= a.lo) & (f <= a.hi)
+        ev = os.path.join(a.out, f"eval_{name}.csv")
+        grid = os.path.join(a.out, f"freqs_{name}.txt")
+        with open(grid, "w") as fh:
+            fh.write("\n".join(repr(float(x)) for x in f[sel]) + "\n")
+        # the twin at the truth's own lines (no interpolation across a resonance)
+        subprocess.run([MTWIN, "eval", "-q", "--twin", twin, "--at", ",".join(map(str, pose)),
+                        "--freqs", grid, "--out", ev], check=True)
+        _, model = read(ev)
+        records = sorted(glob.glob(os.path.join(a.data, "campaign", f"{name}_*.csv")))
+        h1 = None
+        if records:
+            hp = os.path.join(a.out, f"h1_{name}.csv")
+            if not os.path.exists(hp):
+                subprocess.run([MTWIN, "frf", "-q"] + records + ["--out", hp], check=True)
+            _, h1 = read(hp)
+        line = [f"{name:4}"]
+        for c in ("xx", "yy"):
+            t = channel(truth, c)
+            twin_fit = fit_pct(t[sel], channel(model, c))
+            summary.setdefault((name[0], c), []).append(twin_fit)
+            text = f"{c} twin {twin_fit:7.2f} %"
+            if h1 is not None:
+                fh = np.array([float(r["f_hz"]) for r in h1])
+                hs = (fh >= a.lo) & (fh <= a.hi)
+                text += f" (own H1 {fit_pct(on(fh[hs], f, t), channel(h1, c)[hs]):7.2f} %)"
+            line.append(text)
+        print("  ".join(line))
+    for (kind, c), v in sorted(summary.items()):
+        what = "measured" if kind == "g" else "unmeasured"
+        print(f"{what} poses {c}: mean {np.mean(v):.2f} %, worst {np.min(v):.2f} % "
+              f"({a.lo:g}-{a.hi:g} Hz, {len(v)} poses)")
+
+
+if __name__ == "__main__":
+    main()
