@@ -50,16 +50,20 @@ fn diagnose_effect_case(effect: Effect, seed: u64) -> serde_json::Value {
     let machine = Machine::nominal();
     let (_, twin) = centre_twin(dir.path(), &machine, seed * 1000 + 700);
     let c = case(&machine, effect, seed);
-    let files: Vec<PathBuf> = c
-        .records
+    let files = write_records(dir.path(), &c);
+    diagnose(&twin, &files, &dir.path().join("out"))
+}
+
+/// A case's records written to `dir` under their own names.
+fn write_records(dir: &Path, c: &lumped::effects::Case) -> Vec<PathBuf> {
+    c.records
         .iter()
         .map(|(name, r)| {
-            let p = dir.path().join(name);
+            let p = dir.join(name);
             r.write_csv(&p).expect("write");
             p
         })
-        .collect();
-    diagnose(&twin, &files, &dir.path().join("out"))
+        .collect()
 }
 
 #[test]
@@ -590,15 +594,7 @@ fn lumped_twin_holds_no_mode_narrower_than_its_lines_and_names_the_outside_tone(
         }
     }
     let c = case(&machine, Effect::Disturbance, seed);
-    let files: Vec<PathBuf> = c
-        .records
-        .iter()
-        .map(|(name, r)| {
-            let p = dir.path().join(name);
-            r.write_csv(&p).expect("write");
-            p
-        })
-        .collect();
+    let files = write_records(dir.path(), &c);
     let d = diagnose(&twin_path, &files, &dir.path().join("out"));
     assert_eq!(d["cause"], "disturbance", "{d}");
     let found = f64_list(&d["details"]["freq_hz"]);
