@@ -951,25 +951,6 @@ pub fn identify_frfs(
     Ok(keep)
 }
 
-/// A fitted mode whose half-power band (2ζf) is narrower than this fraction of the FRF's
-/// line spacing is not resolved by the data: it is removed from the candidate that holds
-/// it in the band when it does not shape the lines beside it either ([`UNRESOLVED_SKIRT`];
-/// second generator, seed 4: a 3508 Hz "mode" with ζ = 0.005 % won the order alternatives
-/// by fitting one noise line and rang in every milling simulation).
-const UNRESOLVED_BANDWIDTH: f64 = 0.25;
-/// In a band trimmed at its low end, an overdamped pair whose slow real pole lies below
-/// the band's lower edge divided by this, and whose static compliance exceeds [`DRIFT_STATIC_RATIO`] times the model's
-/// receptance at that edge, rejects its candidate (second generator, seed 4: a 14 Hz pair
-/// with ζ = 20 made the twin's static compliance 30x the truth's, and every milling
-/// simulation drifted: held-out fit -7876 %).
-const DRIFT_POLE_FRACTION: f64 = 20.0;
-/// See [`DRIFT_POLE_FRACTION`].
-const DRIFT_STATIC_RATIO: f64 = 10.0;
-
-/// ... and whose own term two lines beside its frequency stays below this fraction of the
-/// measured FRF there, in every channel.
-const UNRESOLVED_SKIRT: f64 = 0.1;
-
 /// The least gain \[points of the summed score\] for which a campaign variant replaces the
 /// poses' own orders (the vmachine FMU fixture's variants score within 0.02 points).
 const VARIANT_MIN_GAIN: f64 = 1.0;
@@ -2073,118 +2054,13 @@ fn fit_pose(
     if debug {
         eprintln!("pose {pose:?}, first fit:\n{}", best.report);
     }
-    // a mode narrower than the line spacing can resolve fits a noise line, not a resonance
-    // (a pose alone; a campaign's tracking and residual-pole freezing pair and replace the
-    // poles of all poses, and removing modes pose by pose cost the second generator's
-    // campaign 14 points of yy at its measured poses)
-    let single = per_input == PerInput::Try;
-    let df = (frf.freqs_hz.windows(2))
-        .map(|w| w[1] - w[0])
-        .find(|d| *d > 0.0)
-        .unwrap_or(0.0);
-    // (a real lightly damped mode, e.g. a free-free beam's at 0.05 %, is as narrow, but
-    // its skirt shapes the FRF lines beside it; a noise line's "mode" does not)
-    let unresolved = |m: &crate::model::ModalModel| -> Vec<(usize, f64, f64)> {
-        let beside = |k: usize, f: f64| {
-            let mode = &m.modes[k];
-            (frf.channels.iter())
-                .filter(|c| judge.is_empty() || judge.contains(&c.channel))
-                .all(|c| {
-                    let Some(ci) = m.channel_index(c.channel) else {
-                        return true;
-                    };
-                    let n = &m.channels[ci].num[k];
-                    [f - 2.0 * df, f + 2.0 * df].iter().all(|&fl| {
-                        let line = (frf.freqs_hz.iter())
-                            .position(|&x| x >= fl)
-                            .unwrap_or(frf.freqs_hz.len() - 1);
-                        let s =
-                            Complex64::new(0.0, 2.0 * std::f64::consts::PI * frf.freqs_hz[line]);
-                        let term = ((s * n.b1 + n.b0) / mode.den(s)).norm();
-                        term < UNRESOLVED_SKIRT * c.h[line].norm()
-                    })
-                })
-        };
-        (m.modes.iter().enumerate())
-            .map(|(k, md)| (k, md.wn / (2.0 * std::f64::consts::PI), md.zeta))
-            .filter(|&(k, f, z)| {
-                f >= band.pose.0
-                    && f <= band.pose.1
-                    && 2.0 * z * f < UNRESOLVED_BANDWIDTH * df
-                    && beside(k, f)
-            })
-            .collect()
-    };
-    // such modes are removed from a candidate (with their numerators) before it is scored
-    let prune = |r: &mut crate::rational_fit::FitResult| -> Option<String> {
-        let gone = unresolved(&r.model);
-        if gone.is_empty() || !single {
-            return None;
-        }
-        let keep: Vec<bool> = (0..r.model.modes.len())
-            .map(|k| !gone.iter().any(|g| g.0 == k))
-            .collect();
-        let mut it = keep.iter();
-        r.model.modes.retain(|_| *it.next().unwrap_or(&true));
-        for c in r.model.channels.iter_mut() {
-            let mut it = keep.iter();
-            c.num.retain(|_| *it.next().unwrap_or(&true));
-        }
-        Some(format!(
-            "removed {}: half-power band below {UNRESOLVED_BANDWIDTH} of the line spacing \
-             {df:.3} Hz and less than {:.0} % of the FRF two lines beside (a noise line, not a \
-             resonance the data resolve)",
-            (gone.iter())
-                .map(|(_, f, z)| format!("a mode at {f:.1} Hz (damping {:.4} %)", 100.0 * z))
-                .collect::<Vec<_>>()
-                .join(", "),
-            100.0 * UNRESOLVED_SKIRT
-        ))
-    };
-    // an overdamped pair whose slow real pole lies far below the band acts in the band as
-    // an integrator and below it as a huge static compliance: no data support it, and a
-    // simulation with a mean force (milling) drifts with it
-    // (only where the band was trimmed at its low end: a structure that large and soft
-    // below the band would have responded there coherently, like a free-free beam's mass
-    // line does, and the band would reach there)
-    let first_line = frf
-        .freqs_hz
-        .iter()
-        .copied()
-        .find(|f| *f > 0.0)
-        .unwrap_or(0.0);
-    let drifting = |m: &crate::model::ModalModel| -> Option<String> {
-        let lo = band.pose.0.max(df);
-        if lo < 2.0 * first_line || !single {
-            return None;
-        }
-        (m.modes.iter().enumerate())
-            .filter(|(_, md)| md.zeta >= 1.0)
-            .find_map(|(k, md)| {
-                let slow = md.wn * (md.zeta - (md.zeta * md.zeta - 1.0).sqrt());
-                if slow >= 2.0 * std::f64::consts::PI * lo / DRIFT_POLE_FRACTION {
-                    return None;
-                }
-                (frf.channels.iter())
-                    .filter(|c| c.channel.output == c.channel.input)
-                    .filter(|c| judge.is_empty() || judge.contains(&c.channel))
-                    .find_map(|c| {
-                        let ci = m.channel_index(c.channel)?;
-                        let dc = (m.channels[ci].num[k].b0 / (md.wn * md.wn)).abs();
-                        let edge = m.eval_hz(ci, lo).norm();
-                        (dc > DRIFT_STATIC_RATIO * edge).then(|| {
-                            format!(
-                                "rejected: an overdamped pair with a real pole at {:.3} Hz (far \
-                                 below the band's {lo:.1} Hz) gives {} a static compliance \
-                                 {:.0}x its value at the band's edge (no data support it)",
-                                slow / (2.0 * std::f64::consts::PI),
-                                c.channel,
-                                dc / edge
-                            )
-                        })
-                    })
-            })
-    };
+    // a pose alone: noise-line modes removed, drifting candidates rejected (in a campaign
+    // the tracking and residual-pole freezing pair and replace the poles of all poses, and
+    // removing modes pose by pose cost the second generator's campaign 14 points of yy)
+    let guards = crate::guards::ModelGuards::new(frf, band.pose, &judge)
+        .filter(|_| per_input == PerInput::Try);
+    let prune = |r: &mut crate::rational_fit::FitResult| guards.as_ref()?.prune(&mut r.model);
+    let drifting = |m: &crate::model::ModalModel| guards.as_ref()?.drifting(m);
     if let Some(why) = prune(&mut best) {
         plan.alternatives.push(format!("{}: {why}", name(options)));
     }

@@ -40,6 +40,7 @@ pub mod campaign;
 pub mod diagnose;
 mod eigen;
 pub mod fit;
+mod guards;
 pub mod io;
 mod lanes;
 pub mod lobes;
