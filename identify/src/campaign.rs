@@ -2054,7 +2054,8 @@ fn fit_pose(
     if debug {
         eprintln!("pose {pose:?}, first fit:\n{}", best.report);
     }
-    // a pose alone: noise-line modes removed, drifting candidates rejected (in a campaign
+    // a pose alone at the automatic order (a forced order is the user's): noise-line modes
+    // removed, drifting candidates rejected (in a campaign
     // the tracking and residual-pole freezing pair and replace the poles of all poses, and
     // removing modes pose by pose cost the second generator's campaign 14 points of yy)
     let guards = crate::guards::ModelGuards::new(frf, band.pose, &judge)

@@ -71,9 +71,7 @@ impl<'a> ModelGuards<'a> {
             };
             let n = &m.channels[ci].num[k];
             [f - 2.0 * self.df, f + 2.0 * self.df].iter().all(|&fl| {
-                let line = (freqs.iter())
-                    .position(|&x| x >= fl)
-                    .unwrap_or(freqs.len() - 1);
+                let line = freqs.partition_point(|&x| x < fl).min(freqs.len() - 1);
                 let s = Complex64::new(0.0, 2.0 * PI * freqs[line]);
                 let term = ((s * n.b1 + n.b0) / m.modes[k].den(s)).norm();
                 term < UNRESOLVED_SKIRT * c.h[line].norm()

@@ -356,18 +356,18 @@ fn coherent_resonances(
     let r = 2f64.powf(1.0 / 6.0);
     let n = fb.len();
     let is_peak = |k: usize| {
-        let near = |j: usize| fb[j] >= fb[k] / r && fb[j] <= fb[k] * r;
-        let low = |side: &mut dyn Iterator<Item = usize>| {
-            side.filter(|&j| near(j))
-                .map(|j| mag[j])
-                .fold(f64::INFINITY, f64::min)
-        };
+        // the lines within ±1/6 octave (sorted frequencies: one index range, not a scan)
+        let (a, b) = (
+            fb.partition_point(|&x| x < fb[k] / r),
+            fb.partition_point(|&x| x <= fb[k] * r),
+        );
+        let low = |side: &[f64]| side.iter().copied().fold(f64::INFINITY, f64::min);
         g[k] >= trust
             && ((k > 0 && g[k - 1] >= MIN_TRUST_COHERENCE)
                 || (k + 1 < n && g[k + 1] >= MIN_TRUST_COHERENCE))
-            && (0..n).filter(|&j| near(j)).all(|j| mag[j] <= mag[k])
-            && mag[k] >= RESONANCE_PROMINENCE * low(&mut (0..k))
-            && mag[k] >= RESONANCE_PROMINENCE * low(&mut (k + 1..n))
+            && mag[a..b].iter().all(|&m| m <= mag[k])
+            && mag[k] >= RESONANCE_PROMINENCE * low(&mag[a..k])
+            && mag[k] >= RESONANCE_PROMINENCE * low(&mag[k + 1..b])
     };
     for k in (0..first).chain(last + 1..n) {
         if !is_peak(k) {
