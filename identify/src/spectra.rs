@@ -576,23 +576,33 @@ fn impulsive(samples: &mut [f64], (lo, hi): (f64, f64)) -> bool {
     (above as f64) < 0.02 * samples.len() as f64
 }
 
+/// Longest window (samples) of a part whose dominant line [`is_sweep`] takes.
+const SWEEP_WINDOW: usize = 8192;
+
 /// Segments the force is cut into to follow its dominant frequency.
 const SWEEP_SEGMENTS: usize = 16;
 
 /// True when the force is a sweep (linear, logarithmic or stepped sine): over
 /// [`SWEEP_SEGMENTS`] equal parts of the record, the parts carrying force (RMS at least
-/// 10 % of the strongest part's, at least 6 of them) have a dominant frequency that only
-/// rises or only falls, over a span of at least a factor 4. Random force has no steady
+/// 10 % of the strongest part's, at least 6 of them) have a dominant frequency (over the
+/// middle [`SWEEP_WINDOW`] samples of the part at most) that only rises or only falls, over a span of at least a factor 4. Random force has no steady
 /// dominant frequency, milling's stays put; for a sweep the rectangular-window full-record
 /// ratio is unbiased where Welch's Hann segments smear the moving line.
 ///
 /// `stats`: `(start, len, mean, rms)` of each part ([`ForceStats::parts`]; none: not a
 /// sweep).
 fn is_sweep(f: &[f64], stats: &[(usize, usize, f64, f64)]) -> bool {
-    let Some(&(_, n, _, _)) = stats.first() else {
+    let Some(&(_, len, _, _)) = stats.first() else {
         return false;
     };
-    let parts: Vec<&[f64]> = stats.iter().map(|&(s, n, _, _)| &f[s..s + n]).collect();
+    // the dominant line of a part from its middle SWEEP_WINDOW samples at most: a moving
+    // line is as clear in a short window as in a long one (it crosses fewer lines there),
+    // and case a of the peers' benchmark spent 3.5 % of its estimate on three transforms
+    // of 24 000 points here
+    let n = len.min(SWEEP_WINDOW);
+    let parts: Vec<&[f64]> = (stats.iter())
+        .map(|&(s, len, _, _)| &f[s + (len - n) / 2..][..n])
+        .collect();
     let means: Vec<f64> = stats.iter().map(|p| p.2).collect();
     let rms: Vec<f64> = stats.iter().map(|p| p.3).collect();
     let top = rms.iter().copied().fold(0.0, f64::max);
@@ -603,11 +613,31 @@ fn is_sweep(f: &[f64], stats: &[(usize, usize, f64, f64)]) -> bool {
     // the dominant line of each part carrying force, in order; random force fails the
     // monotony after a few parts, so the transforms stop there
     let r2c = plan(n);
-    let (mut buf, mut out, mut scratch) = (
-        r2c.make_input_vec(),
-        r2c.make_output_vec(),
-        r2c.make_scratch_vec(),
-    );
+    SWEEP_BUFFERS.with_borrow_mut(|(buf, out, scratch)| {
+        buf.resize(n, 0.0);
+        out.resize(n / 2 + 1, Complex64::default());
+        scratch.resize(r2c.get_scratch_len(), Complex64::default());
+        let sweep = dominant_lines_sweep(&*r2c, &parts, &means, carrying, buf, out, scratch);
+        if n > PLAN_CACHE_MAX_LEN {
+            // kept per thread only up to the cached plans' length
+            (*buf, *out, *scratch) = (Vec::new(), Vec::new(), Vec::new());
+        }
+        sweep
+    })
+}
+
+/// [`is_sweep`]'s test on the parts carrying force (`carrying`, in order): their
+/// dominant lines only rise or only fall, over a factor of 4 at least. `buf`, `out` and
+/// `scratch` are the transform's buffers, of its sizes.
+fn dominant_lines_sweep(
+    r2c: &dyn RealToComplex<f64>,
+    parts: &[&[f64]],
+    means: &[f64],
+    carrying: Vec<usize>,
+    buf: &mut [f64],
+    out: &mut [Complex64],
+    scratch: &mut [Complex64],
+) -> bool {
     let (mut up, mut down) = (true, true);
     let (mut lo, mut hi, mut last) = (usize::MAX, 0, None);
     for s in carrying {
@@ -615,10 +645,7 @@ fn is_sweep(f: &[f64], stats: &[(usize, usize, f64, f64)]) -> bool {
         for (b, &v) in buf.iter_mut().zip(parts[s]) {
             *b = v - m;
         }
-        if r2c
-            .process_with_scratch(&mut buf, &mut out, &mut scratch)
-            .is_err()
-        {
+        if r2c.process_with_scratch(buf, out, scratch).is_err() {
             return false;
         }
         let k = (1..out.len())
@@ -689,6 +716,8 @@ thread_local! {
     static INVERSE_PLANS: Cache<Arc<dyn ComplexToReal<f64>>> = const { std::cell::RefCell::new(Vec::new()) };
     /// Periodic Hann windows, likewise.
     static WINDOWS: Cache<Arc<[f64]>> = const { std::cell::RefCell::new(Vec::new()) };
+    /// Input, output and scratch buffers of [`is_sweep`]'s transforms.
+    static SWEEP_BUFFERS: std::cell::RefCell<(Vec<f64>, Vec<Complex64>, Vec<Complex64>)> = const { std::cell::RefCell::new((Vec::new(), Vec::new(), Vec::new())) };
     /// Input and scratch buffers of the Welch transforms ([`Welch::add_segments`]).
     static BUFFERS: std::cell::RefCell<(Vec<f64>, Vec<Complex64>)> = const { std::cell::RefCell::new((Vec::new(), Vec::new())) };
 }
@@ -1022,6 +1051,31 @@ impl Accumulator {
         match scale {
             Some(s) => pair_pass(gfy, gyy, gff, fs, ys, |k, y| y * s[k]),
             None => pair_pass(gfy, gyy, gff, fs, ys, |_, y| y),
+        }
+    }
+
+    /// [`Accumulator::add_output_pair`] of outputs 0 and 1 in one pass (the force
+    /// spectra read once for both), with the force's auto spectrum.
+    fn add_outputs01_pair(
+        &mut self,
+        fs: [&[Complex64]; 2],
+        ys0: [&[Complex64]; 2],
+        ys1: [&[Complex64]; 2],
+        scale: Option<&[Complex64]>,
+    ) {
+        let nl = self.nl;
+        let (fs, ys0, ys1) = (
+            fs.map(|v| &v[1..=nl]),
+            ys0.map(|v| &v[1..=nl]),
+            ys1.map(|v| &v[1..=nl]),
+        );
+        let (gyy0, gyy1) = self.gyy.split_at_mut(nl);
+        let (gfy0, gfy1) = self.gfy.split_at_mut(nl);
+        let (o0, o1) = ((gfy0, gyy0), (&mut gfy1[..nl], &mut gyy1[..nl]));
+        let gff = &mut self.gff1[..nl];
+        match scale {
+            Some(s) => pair_pass2(o0, o1, gff, fs, ys0, ys1, |k, y| y * s[k]),
+            None => pair_pass2(o0, o1, gff, fs, ys0, ys1, |_, y| y),
         }
     }
 
@@ -1423,6 +1477,42 @@ fn pair_pass(
             gfy[k] = gfy[k] + fa[k].conj() * ya + fb[k].conj() * yb;
             gyy[k] = gyy[k] + ya.norm_sqr() + yb.norm_sqr();
         }
+    }
+}
+
+/// [`pair_pass`] for two outputs at once: the force spectra `fa`, `fb` read once for both
+/// (`g*0`: output 0's sums, `g*1`: output 1's; `gff` as in [`pair_pass`]); each sum gets
+/// the same terms in the same order as two [`pair_pass`] calls would add.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn pair_pass2(
+    (gfy0, gyy0): (&mut [Complex64], &mut [f64]),
+    (gfy1, gyy1): (&mut [Complex64], &mut [f64]),
+    gff: &mut [f64],
+    [fa, fb]: [&[Complex64]; 2],
+    [ya0, yb0]: [&[Complex64]; 2],
+    [ya1, yb1]: [&[Complex64]; 2],
+    scale: impl Fn(usize, Complex64) -> Complex64,
+) {
+    let n = gfy0.len().min(gyy0.len()).min(gfy1.len()).min(gyy1.len());
+    let (fa, fb) = (&fa[..n], &fb[..n]);
+    let (ya0, yb0, ya1, yb1) = (&ya0[..n], &yb0[..n], &ya1[..n], &yb1[..n]);
+    let (gfy0, gyy0, gfy1, gyy1) = (
+        &mut gfy0[..n],
+        &mut gyy0[..n],
+        &mut gfy1[..n],
+        &mut gyy1[..n],
+    );
+    let gff = &mut gff[..n];
+    for k in 0..n {
+        let (fa, fb) = (fa[k], fb[k]);
+        gff[k] = gff[k] + (fa.conj() * fa).re + (fb.conj() * fb).re;
+        let (ya, yb) = (scale(k, ya0[k]), scale(k, yb0[k]));
+        gfy0[k] = gfy0[k] + fa.conj() * ya + fb.conj() * yb;
+        gyy0[k] = gyy0[k] + ya.norm_sqr() + yb.norm_sqr();
+        let (ya, yb) = (scale(k, ya1[k]), scale(k, yb1[k]));
+        gfy1[k] = gfy1[k] + fa.conj() * ya + fb.conj() * yb;
+        gyy1[k] = gyy1[k] + ya.norm_sqr() + yb.norm_sqr();
     }
 }
 
@@ -1847,7 +1937,7 @@ impl Welch {
             for seg in segments {
                 let (forces, responses) = seg.split_at(inputs);
                 sp.fs.resize_with(inputs, Vec::new);
-                sp.ys.resize_with(1, Vec::new);
+                sp.ys.resize_with(sp.ys.len().max(1), Vec::new);
                 for (x, dst) in forces.iter().zip(&mut sp.fs) {
                     // (the callers checked the forces)
                     fill_windowed_unchecked(buf, x, window);
@@ -1878,11 +1968,12 @@ impl Welch {
 
 impl Welch {
     /// [`Welch::add_one_by_one`] for one input, two segments at a time: both forces'
-    /// spectra, then per output both segments' spectra and one pass over the lines that
-    /// adds the two ([`Accumulator::add_output_pair`]); an odd last segment alone. Each
-    /// sum is read and written once per pair (the sums outweigh the spectra in memory
-    /// traffic: on case a of the peers' benchmark the estimate went from 1.40-1.48 to
-    /// 1.27-1.35 times its FFT floor, on-CPU); the same sums, bit for bit.
+    /// spectra, then both segments' spectra of the first two outputs and one pass over
+    /// the lines that adds the four ([`Accumulator::add_outputs01_pair`]), a third output
+    /// in a pass of its own ([`Accumulator::add_output_pair`]); an odd last segment
+    /// alone. Each sum is read and written once per pair (the sums outweigh the spectra
+    /// in memory traffic: on case a of the peers' benchmark the estimate went from
+    /// 1.40-1.48 to 1.27-1.35 times its FFT floor, on-CPU); the same sums, bit for bit.
     fn add_in_pairs(
         &mut self,
         acc: &mut Accumulator,
@@ -1902,12 +1993,34 @@ impl Welch {
             for pair in pairs {
                 for (seg, sp) in pair.iter().zip(sp.iter_mut()) {
                     sp.fs.resize_with(1, Vec::new);
-                    sp.ys.resize_with(1, Vec::new);
+                    sp.ys.resize_with(sp.ys.len().max(1), Vec::new);
                     // (the callers checked the forces)
                     fill_windowed_unchecked(buf, seg[0], window);
                     transform(plan, buf, &mut sp.fs[0], scratch, None)?;
                 }
-                for o in 0..pair[0].len() - 1 {
+                // the first two outputs in one pass (the force spectra read once for
+                // both: case a of the peers' benchmark went from 1.26-1.29 to 1.22-1.23
+                // times its FFT floor, on-CPU), a third alone
+                let outputs = pair[0].len() - 1;
+                let fused = outputs >= 2;
+                if fused {
+                    for (seg, sp) in pair.iter().zip(sp.iter_mut()) {
+                        sp.ys.resize_with(2, Vec::new);
+                        for o in 0..2 {
+                            if !fill_windowed(buf, seg[1 + o], window) {
+                                return Ok(false);
+                            }
+                            transform(plan, buf, &mut sp.ys[o], scratch, None)?;
+                        }
+                    }
+                    acc.add_outputs01_pair(
+                        [&sp[0].fs[0], &sp[1].fs[0]],
+                        [&sp[0].ys[0], &sp[1].ys[0]],
+                        [&sp[0].ys[1], &sp[1].ys[1]],
+                        conv,
+                    );
+                }
+                for o in (if fused { 2 } else { 0 })..outputs {
                     for (seg, sp) in pair.iter().zip(sp.iter_mut()) {
                         if !fill_windowed(buf, seg[1 + o], window) {
                             return Ok(false);
