@@ -46,9 +46,10 @@ fn record() -> TimeSeries {
 }
 
 /// Windows every Welch segment of every column of `rec` into one buffer and transforms
-/// it: the work no H1 estimate with these settings can skip.
-struct Floor {
-    cols: Vec<Vec<f64>>,
+/// it: the work no H1 estimate with these settings can skip. It reads the record's own
+/// columns, as the estimate does.
+struct Floor<'a> {
+    cols: Vec<&'a [f64]>,
     hop: usize,
     segs: usize,
     window: Vec<f64>,
@@ -58,11 +59,10 @@ struct Floor {
     scratch: Vec<num_complex::Complex64>,
 }
 
-impl Floor {
-    fn new(rec: &TimeSeries, nfft: usize, overlap: f64) -> Self {
+impl<'a> Floor<'a> {
+    fn new(rec: &'a TimeSeries, nfft: usize, overlap: f64) -> Self {
         let cols = (Axis::ALL.into_iter().filter_map(|a| rec.force(a)))
             .chain(Axis::ALL.into_iter().filter_map(|a| rec.response(a)))
-            .map(<[f64]>::to_vec)
             .collect();
         let (hop, segs) = welch_segments(rec.len(), nfft, overlap);
         let plan = realfft::RealFftPlanner::<f64>::new().plan_fft_forward(nfft);
