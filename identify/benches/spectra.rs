@@ -14,7 +14,7 @@
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use identify::axis::Axis;
-use identify::spectra::{estimate_frf, hann, welch_segments, FrfOptions};
+use identify::spectra::{estimate_frf, FftFloor, FrfOptions};
 use identify::timeseries::{ResponseKind, TimeSeries};
 use vmachine::daq::{acquire, simulate_machine, Daq};
 use vmachine::excitation::noise;
@@ -43,59 +43,6 @@ fn record() -> TimeSeries {
         daq.response,
     );
     acquire(forces, resp, &pose_at, &daq, "noise_3")
-}
-
-/// Windows every Welch segment of every column of `rec` into one buffer and transforms
-/// it: the work no H1 estimate with these settings can skip. It reads the record's own
-/// columns, as the estimate does.
-struct Floor<'a> {
-    cols: Vec<&'a [f64]>,
-    hop: usize,
-    segs: usize,
-    window: Vec<f64>,
-    plan: std::sync::Arc<dyn realfft::RealToComplex<f64>>,
-    buf: Vec<f64>,
-    out: Vec<num_complex::Complex64>,
-    scratch: Vec<num_complex::Complex64>,
-}
-
-impl<'a> Floor<'a> {
-    fn new(rec: &'a TimeSeries, nfft: usize, overlap: f64) -> Self {
-        let cols = (Axis::ALL.into_iter().filter_map(|a| rec.force(a)))
-            .chain(Axis::ALL.into_iter().filter_map(|a| rec.response(a)))
-            .collect();
-        let (hop, segs) = welch_segments(rec.len(), nfft, overlap);
-        let plan = realfft::RealFftPlanner::<f64>::new().plan_fft_forward(nfft);
-        Floor {
-            cols,
-            hop,
-            segs,
-            window: hann(nfft),
-            buf: plan.make_input_vec(),
-            out: plan.make_output_vec(),
-            scratch: plan.make_scratch_vec(),
-            plan,
-        }
-    }
-
-    fn run(&mut self) -> f64 {
-        for s in 0..self.segs {
-            for c in &self.cols {
-                for ((b, x), w) in self
-                    .buf
-                    .iter_mut()
-                    .zip(&c[s * self.hop..])
-                    .zip(&self.window)
-                {
-                    *b = x * w;
-                }
-                self.plan
-                    .process_with_scratch(&mut self.buf, &mut self.out, &mut self.scratch)
-                    .expect("FFT buffers of the plan's sizes");
-            }
-        }
-        self.out[1].re
-    }
 }
 
 /// Nanoseconds this thread has run on a CPU (`CLOCK_THREAD_CPUTIME_ID`; `None` when the
@@ -141,13 +88,8 @@ fn bench(c: &mut Criterion) {
         .expect("a one-thread pool");
     let est = estimate_frf(std::slice::from_ref(&rec), &opts).expect("an estimate");
     let nfft = (rec.fs() / est.df_hz).round() as usize;
-    let mut floor = Floor::new(&rec, nfft, opts.overlap);
-    println!(
-        "{}: {} segments x {} columns",
-        est.method,
-        floor.segs,
-        floor.cols.len()
-    );
+    let mut floor = FftFloor::new(&rec, nfft, opts.overlap);
+    println!("{}: {} windowed FFTs", est.method, floor.count());
     let runs = std::env::var("MTWIN_SPECTRA_RUNS")
         .ok()
         .and_then(|v| v.parse().ok())

@@ -1766,6 +1766,86 @@ pub fn welch_segments(len: usize, nfft: usize, overlap: f64) -> (usize, usize) {
     (hop, count)
 }
 
+/// The Hann-windowed real FFTs of every Welch segment of every column of a record, and
+/// nothing else: the floor under any H1 estimate with these settings (window, plan and
+/// buffers made once, in [`FftFloor::new`]). For benchmarks: [`estimate_frf`]'s time is
+/// judged against [`FftFloor::run`]'s (`cargo bench -p identify --bench spectra`,
+/// `cargo run --release --example bench_peers`).
+pub struct FftFloor<'a> {
+    cols: Vec<&'a [f64]>,
+    hop: usize,
+    segs: usize,
+    window: Vec<f64>,
+    plan: Plan,
+    buf: Vec<f64>,
+    out: Vec<Complex64>,
+    scratch: Vec<Complex64>,
+}
+
+impl<'a> FftFloor<'a> {
+    /// The floor of a Welch estimate of `rec` with segments of `nfft` points overlapping
+    /// by the fraction `overlap`.
+    pub fn new(rec: &'a TimeSeries, nfft: usize, overlap: f64) -> Self {
+        let cols: Vec<&[f64]> = Axis::ALL
+            .into_iter()
+            .filter_map(|a| rec.force(a))
+            .chain(Axis::ALL.into_iter().filter_map(|a| rec.response(a)))
+            .collect();
+        let (hop, segs) = welch_segments(rec.len(), nfft, overlap);
+        let plan = realfft::RealFftPlanner::<f64>::new().plan_fft_forward(nfft);
+        FftFloor {
+            cols,
+            hop,
+            segs,
+            window: hann(nfft),
+            buf: plan.make_input_vec(),
+            out: plan.make_output_vec(),
+            scratch: plan.make_scratch_vec(),
+            plan,
+        }
+    }
+
+    /// The number of FFTs a run does.
+    pub fn count(&self) -> usize {
+        self.segs * self.cols.len()
+    }
+
+    /// Windows and transforms every segment of every column into one buffer; returns a
+    /// line of the last spectrum (so that the work cannot be optimised away).
+    pub fn run(&mut self) -> Complex64 {
+        for s in 0..self.segs {
+            for c in &self.cols {
+                for ((b, x), w) in self
+                    .buf
+                    .iter_mut()
+                    .zip(&c[s * self.hop..])
+                    .zip(&self.window)
+                {
+                    *b = x * w;
+                }
+                if self
+                    .plan
+                    .process_with_scratch(&mut self.buf, &mut self.out, &mut self.scratch)
+                    .is_err()
+                {
+                    return Complex64::default();
+                }
+            }
+        }
+        self.out.get(1).copied().unwrap_or_default()
+    }
+}
+
+impl std::fmt::Debug for FftFloor<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("FftFloor")
+            .field("columns", &self.cols.len())
+            .field("segments", &self.segs)
+            .field("nfft", &self.window.len())
+            .finish()
+    }
+}
+
 /// Periodic Hann window of length n.
 pub fn hann(n: usize) -> Vec<f64> {
     (0..n)
