@@ -2079,8 +2079,9 @@ impl Welch {
                     transform(plan, buf, &mut sp.fs[0], scratch, None)?;
                 }
                 // the first two outputs in one pass (the force spectra read once for
-                // both: case a of the peers' benchmark went from 1.26-1.29 to 1.22-1.23
-                // times its FFT floor, on-CPU), a third alone
+                // both: the estimate of case a of the peers' benchmark 4-5 % faster,
+                // 1.26-1.29 -> 1.22-1.23 times the slower floor the criterion bench timed
+                // then), a third alone
                 let outputs = pair[0].len() - 1;
                 let fused = outputs >= 2;
                 if fused {
