@@ -585,9 +585,10 @@ const SWEEP_SEGMENTS: usize = 16;
 /// True when the force is a sweep (linear, logarithmic or stepped sine): over
 /// [`SWEEP_SEGMENTS`] equal parts of the record, the parts carrying force (RMS at least
 /// 10 % of the strongest part's, at least 6 of them) have a dominant frequency (over the
-/// middle [`SWEEP_WINDOW`] samples of the part at most) that only rises or only falls, over a span of at least a factor 4. Random force has no steady
-/// dominant frequency, milling's stays put; for a sweep the rectangular-window full-record
-/// ratio is unbiased where Welch's Hann segments smear the moving line.
+/// middle [`SWEEP_WINDOW`] samples of the part at most) that only rises or only falls,
+/// over a span of at least a factor 4. Random force has no steady dominant frequency,
+/// milling's stays put; for a sweep the rectangular-window full-record ratio is unbiased
+/// where Welch's Hann segments smear the moving line.
 ///
 /// `stats`: `(start, len, mean, rms)` of each part ([`ForceStats::parts`]; none: not a
 /// sweep).
@@ -613,31 +614,11 @@ fn is_sweep(f: &[f64], stats: &[(usize, usize, f64, f64)]) -> bool {
     // the dominant line of each part carrying force, in order; random force fails the
     // monotony after a few parts, so the transforms stop there
     let r2c = plan(n);
-    SWEEP_BUFFERS.with_borrow_mut(|(buf, out, scratch)| {
-        buf.resize(n, 0.0);
-        out.resize(n / 2 + 1, Complex64::default());
-        scratch.resize(r2c.get_scratch_len(), Complex64::default());
-        let sweep = dominant_lines_sweep(&*r2c, &parts, &means, carrying, buf, out, scratch);
-        if n > PLAN_CACHE_MAX_LEN {
-            // kept per thread only up to the cached plans' length
-            (*buf, *out, *scratch) = (Vec::new(), Vec::new(), Vec::new());
-        }
-        sweep
-    })
-}
-
-/// [`is_sweep`]'s test on the parts carrying force (`carrying`, in order): their
-/// dominant lines only rise or only fall, over a factor of 4 at least. `buf`, `out` and
-/// `scratch` are the transform's buffers, of its sizes.
-fn dominant_lines_sweep(
-    r2c: &dyn RealToComplex<f64>,
-    parts: &[&[f64]],
-    means: &[f64],
-    carrying: Vec<usize>,
-    buf: &mut [f64],
-    out: &mut [Complex64],
-    scratch: &mut [Complex64],
-) -> bool {
+    let (mut buf, mut out, mut scratch) = (
+        r2c.make_input_vec(),
+        r2c.make_output_vec(),
+        r2c.make_scratch_vec(),
+    );
     let (mut up, mut down) = (true, true);
     let (mut lo, mut hi, mut last) = (usize::MAX, 0, None);
     for s in carrying {
@@ -645,7 +626,10 @@ fn dominant_lines_sweep(
         for (b, &v) in buf.iter_mut().zip(parts[s]) {
             *b = v - m;
         }
-        if r2c.process_with_scratch(buf, out, scratch).is_err() {
+        if r2c
+            .process_with_scratch(&mut buf, &mut out, &mut scratch)
+            .is_err()
+        {
             return false;
         }
         let k = (1..out.len())
@@ -716,8 +700,6 @@ thread_local! {
     static INVERSE_PLANS: Cache<Arc<dyn ComplexToReal<f64>>> = const { std::cell::RefCell::new(Vec::new()) };
     /// Periodic Hann windows, likewise.
     static WINDOWS: Cache<Arc<[f64]>> = const { std::cell::RefCell::new(Vec::new()) };
-    /// Input, output and scratch buffers of [`is_sweep`]'s transforms.
-    static SWEEP_BUFFERS: std::cell::RefCell<(Vec<f64>, Vec<Complex64>, Vec<Complex64>)> = const { std::cell::RefCell::new((Vec::new(), Vec::new(), Vec::new())) };
     /// Input and scratch buffers of the Welch transforms ([`Welch::add_segments`]).
     static BUFFERS: std::cell::RefCell<(Vec<f64>, Vec<Complex64>)> = const { std::cell::RefCell::new((Vec::new(), Vec::new())) };
 }
@@ -2447,8 +2429,9 @@ mod tests {
 
     #[test]
     fn one_thread_in_pairs_equals_the_parallel_batches_bit_for_bit() {
-        // one force, two responses, an odd number of segments (the last one alone), with
-        // and without the acceleration-to-displacement scale
+        // one force, two and three responses (the first two added in one pass, a third
+        // alone), an odd number of segments (the last one alone), with and without the
+        // acceleration-to-displacement scale
         let n = 5 * 512 + 37;
         let noise = |seed: u64| -> Vec<f64> {
             let mut x = seed.wrapping_mul(6364136223846793005).wrapping_add(1);
@@ -2469,11 +2452,16 @@ mod tests {
                 .map(|i| a * (f[i] + 0.5 * f[i.saturating_sub(3)]) + 0.1 * e[i])
                 .collect()
         };
-        for kind in [ResponseKind::Displacement, ResponseKind::Acceleration] {
+        let kinds = [ResponseKind::Displacement, ResponseKind::Acceleration];
+        for (kind, outputs) in kinds.into_iter().flat_map(|k| [(k, 2), (k, 3)]) {
             let rec = TimeSeries {
                 dt: 1e-3,
                 force: [Some(f.clone()), None, None],
-                response: [Some(y(2, 1.0)), Some(y(3, -0.3)), None],
+                response: [
+                    Some(y(2, 1.0)),
+                    Some(y(3, -0.3)),
+                    (outputs == 3).then(|| y(4, 0.7)),
+                ],
                 response_kind: Some(kind),
                 ..TimeSeries::default()
             };
@@ -2490,7 +2478,7 @@ mod tests {
                 pool.install(|| estimate_frf(std::slice::from_ref(&rec), &opts).unwrap())
             };
             let (one, three) = (on(1), on(3));
-            assert_eq!(one.frf.channels.len(), 2);
+            assert_eq!(one.frf.channels.len(), outputs);
             for (a, b) in one.frf.channels.iter().zip(&three.frf.channels) {
                 let bits = |c: &FrfChannel| -> Vec<u64> {
                     (c.h.iter().flat_map(|h| [h.re, h.im]))
@@ -2498,7 +2486,7 @@ mod tests {
                         .map(f64::to_bits)
                         .collect()
                 };
-                assert_eq!(bits(a), bits(b), "{kind:?}");
+                assert_eq!(bits(a), bits(b), "{kind:?}, {outputs} outputs");
             }
         }
     }
