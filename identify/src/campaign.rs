@@ -1080,8 +1080,10 @@ fn build_twin(
 /// gave 10, a band 4 Hz lower five 7s and 7, and the twin lost the pose-dependent
 /// 139/167 Hz mode at half the poses) where the median stays at 9. Measured poses vs the
 /// analytic truth, xx 150-2500 Hz, that campaign: mean 93.6 -> 96.9 %, worst 92.1 ->
-/// 93.7 %; the nominal machine's campaigns (dumps 1 and 2) and the tryout campaign keep
-/// the same order and twin.
+/// 93.7 %; random machine 5's yy 87.6 -> 96.0 % (worst 64.5 -> 92.5 %), random machine
+/// 4's xx 91.6 -> 88.7 % (worst 88.2 -> 80.1 %, its yy 92.7 -> 94.6 %); the nominal
+/// machine's campaigns (dumps 1 and 2) and the tryout campaign keep the same order and
+/// twin.
 fn common_count(counts: &[usize]) -> usize {
     let mut c = counts.to_vec();
     c.sort_unstable();
