@@ -203,12 +203,10 @@ fn case_a(dir: &Path, machine: &ModalMachine) -> Res<Value> {
     let fit = worst_fit_frf(&est.frf, &truth, MACHINE_BAND);
     let nfft = (rec.fs() / est.df_hz).round() as usize;
     let mut floor = identify::spectra::FftFloor::new(&rec, nfft, opts.overlap);
-    let floor_ms = median_ms(RUNS, || floor.run());
     let ffts = floor.count();
-    // the ratio of the two from calls in turn (`floor_ms` and `ms` above are timed
-    // minutes apart, and the machine's load moves in between)
-    // both on the one worker of a pool, where the estimate runs its parts (its thread's
-    // CPU clock then counts all of its work)
+    // the ratio of the two from calls in turn (timed apart, the machine's load moves in
+    // between), both on the one worker of a pool, where the estimate runs its parts; the
+    // floor's row is its median from these calls
     let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
     let wall = pool.install(|| {
         interleaved_ms(
@@ -221,6 +219,7 @@ fn case_a(dir: &Path, machine: &ModalMachine) -> Res<Value> {
             },
         )
     });
+    let floor_ms = wall[1];
     println!(
         "a. FRF estimation: {} ({} lines), fit {fit:.3} %, {ms:.1} ms (all cores: {}); \
          in turn with its FFT floor ({RATIO_RUNS} calls each): {:.2} / {:.2} ms = {:.2}x",

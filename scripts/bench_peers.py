@@ -652,8 +652,8 @@ def main():
         "overlap; scipy removes each segment's mean (its default), mtwin and the numpy row "
         "do not. The floor rows time only windowing into a ready buffer and the real FFTs. "
         "The 'against its floor' row calls mtwin's estimate and its floor in turn, so that "
-        "the machine's load moves both alike (the estimate and floor rows above are timed "
-        "apart); its ratio is the one issue 21's 1.3x target is about.",
+        "the machine's load moves both alike (the floor row is its median from these calls, the "
+        "estimate row a median of its own, timed apart); its ratio is the one issue 21's 1.3x target is about.",
         "* d: the peers get the batched numpy H1 (the fastest H1 route of a) of each pose "
         "and fit each pose once; mtwin also tracks modes across poses and checks the "
         "interpolation (leave one out).",
