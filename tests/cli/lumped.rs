@@ -541,7 +541,9 @@ fn lumped_turned_guide_is_named_cross_coupling() {
 /// would be 71 %), while the twin predicts the held-out responses in that band at 94 %,
 /// and no candidate predicts any band better. The estimate is contradicted by the
 /// responses themselves (no candidate need follow it): `none`, and the diagnosis says
-/// why. Before this test it was `unexplained` (a false alarm on a healthy machine).
+/// why. Before this test it was `unexplained` (a false alarm on a healthy machine). Since
+/// a retune of several modes is tried too, one candidate follows that FRF and predicts
+/// the band worse: the diagnosis gives both reasons.
 #[test]
 fn lumped_healthy_milling_whose_frf_the_held_out_band_contradicts_is_none() {
     healthy_none_because(11, "predicts the held-out responses there at");

@@ -809,27 +809,33 @@ pub fn diagnose(
             let mut d = Map::new();
             let (lo, hi) = misfit_band(&model, &pts, band);
             d.insert("frf_misfit_band_hz".into(), json!([lo, hi]));
-            let why = match direct_contradiction.filter(|_| !by_candidates) {
-                Some(((a, b), implied, seen)) => format!(
-                    "the FRF estimated from these records misfits the twin between {lo:.0} and \
-                     {hi:.0} Hz (chi {chi0:.2}, local {chi_loc:.2}); where it misfits most \
-                     ({a:.0}-{b:.0} Hz) it implies that the twin predicts the responses at \
-                     {implied:.0} %, but the twin predicts the held-out responses there at \
-                     {seen:.1} %, and no candidate predicts them better anywhere: the \
-                     estimate, not the twin, is off"
-                ),
-                None => format!(
-                    "the FRF estimated from these records misfits the twin between {lo:.0} and \
-                     {hi:.0} Hz (chi {chi0:.2}, local {chi_loc:.2}), but each of the {} \
-                     candidates that follow it predicts the held-out responses worse where \
-                     it acts (best band gain {:.1} points): the estimate, not the twin, is off",
+            // both contradictions, when both hold (a retune of several modes that
+            // follows the FRF makes the candidates' case on healthy data where the
+            // direct one held alone before)
+            let mut why = format!(
+                "the FRF estimated from these records misfits the twin between {lo:.0} and \
+                 {hi:.0} Hz (chi {chi0:.2}, local {chi_loc:.2})"
+            );
+            if let Some(((a, b), implied, seen)) = direct_contradiction {
+                why += &format!(
+                    "; where it misfits most ({a:.0}-{b:.0} Hz) it implies that the twin \
+                     predicts the responses at {implied:.0} %, but the twin predicts the \
+                     held-out responses there at {seen:.1} %, and no candidate predicts them \
+                     better anywhere"
+                );
+            }
+            if by_candidates {
+                why += &format!(
+                    "; each of the {} candidates that follow it predicts the held-out \
+                     responses worse where it acts (best band gain {:.1} points)",
                     band_tests.len(),
                     band_tests
                         .iter()
                         .map(|t| t.1)
                         .fold(f64::NEG_INFINITY, f64::max)
-                ),
-            };
+                );
+            }
+            why += ": the estimate, not the twin, is off";
             d.insert("frf_misfit_contradicted".into(), json!(why));
             (Cause::None, d, twin.clone(), fit_before)
         }
