@@ -27,8 +27,9 @@ pub(super) fn best_retune(model: &ModalModel, pts: &[Points]) -> Option<(f64, us
     let n = model.modes.len();
     let f = |m: &ModalModel, k: usize| m.modes[k].freq_hz();
     let chi0 = chi(model, pts, 0.0);
-    let entry = |modes: Vec<usize>, m: ModalModel, lead: usize| {
-        let c = chi(&m, pts, 0.0);
+    // (χ given when the caller has it)
+    let entry = |modes: Vec<usize>, m: ModalModel, lead: usize, c: Option<f64>| {
+        let c = c.unwrap_or_else(|| chi(&m, pts, 0.0));
         super::trace(|| {
             format!(
                 "  retune {modes:?}: chi {chi0:.3} -> {c:.3}, lead {lead} {:.2} -> {:.2} Hz, zeta {:.4} -> {:.4}",
@@ -42,7 +43,7 @@ pub(super) fn best_retune(model: &ModalModel, pts: &[Points]) -> Option<(f64, us
     };
     for k in 0..n {
         if let Ok(r) = retune(model, k, pts) {
-            tries.push(entry(vec![k], r.model, k));
+            tries.push(entry(vec![k], r.model, k, None));
         }
         // the pair with the next mode up (each pair once)
         if let Some(j) = (k + 1..n)
@@ -57,7 +58,7 @@ pub(super) fn best_retune(model: &ModalModel, pts: &[Points]) -> Option<(f64, us
             if let Ok(r) = crate::modal_update::update_modes(model, &[k, j], pts, prior, 40) {
                 let moved = |i: usize| (f(&r.model, i) / f(model, i)).ln().abs();
                 let lead = if moved(j) > moved(k) { j } else { k };
-                tries.push(entry(vec![k, j], r.model, lead));
+                tries.push(entry(vec![k, j], r.model, lead, None));
             }
         }
     }
@@ -68,7 +69,7 @@ pub(super) fn best_retune(model: &ModalModel, pts: &[Points]) -> Option<(f64, us
     // 6.9 -> 6.6). Named: the mode that changed most, relative (its frequency, or a
     // tenth of its damping: there the 137 Hz mode's damping grew 1.65x, the 566 Hz
     // mode's 1.4x, although the pair explains more of the misfit).
-    if let Some((modes, m)) = joint_retune(model, pts, chi0, &tries) {
+    if let Some((modes, m, c)) = joint_retune(model, pts, chi0, &tries) {
         let change = |i: usize| {
             let df = (f(&m, i) / f(model, i)).ln().abs();
             let dz = (m.modes[i].zeta / model.modes[i].zeta).ln().abs();
@@ -79,7 +80,7 @@ pub(super) fn best_retune(model: &ModalModel, pts: &[Points]) -> Option<(f64, us
             .copied()
             .max_by(|&a, &b| change(a).total_cmp(&change(b)))
             .unwrap_or(modes[0]);
-        tries.push(entry(modes, m, lead));
+        tries.push(entry(modes, m, lead, Some(c)));
     }
     tries
         .into_iter()
@@ -99,7 +100,7 @@ const JOINT_RETUNE_APART: f64 = 1.2;
 /// The best two retunes of [`best_retune`] (by χ) whose modes lie a factor
 /// [`JOINT_RETUNE_APART`] apart, before and after their retunes (a pair retune whose mode
 /// jumped onto another resonance acts there), each lowering χ by
-/// [`JOINT_RETUNE_MIN_DROP`] of the twin's, retuned together: the modes and the model,
+/// [`JOINT_RETUNE_MIN_DROP`] of the twin's, retuned together: the modes, the model and its χ,
 /// when that lowers χ by that share again below the better one
 /// alone (noise fitted by two more parameters lowers it by far less).
 fn joint_retune(
@@ -107,7 +108,7 @@ fn joint_retune(
     pts: &[Points],
     chi0: f64,
     tries: &[(f64, Vec<usize>, usize, ModalModel)],
-) -> Option<(Vec<usize>, ModalModel)> {
+) -> Option<(Vec<usize>, ModalModel, f64)> {
     // the frequencies a retune acts at: its modes before and after
     let at = |t: &(f64, Vec<usize>, usize, ModalModel)| -> Vec<f64> {
         (t.1.iter())
@@ -131,7 +132,7 @@ fn joint_retune(
     modes.sort_unstable();
     let r = crate::modal_update::update_modes(model, &modes, pts, retune_prior(), 40).ok()?;
     let c = chi(&r.model, pts, 0.0);
-    (c <= first.0 - JOINT_RETUNE_MIN_DROP * chi0).then_some((modes, r.model))
+    (c <= first.0 - JOINT_RETUNE_MIN_DROP * chi0).then_some((modes, r.model, c))
 }
 
 pub(super) fn cand_mode_change(
