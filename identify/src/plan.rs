@@ -10,10 +10,11 @@
 //!   median noise-to-signal ratio `(1−γ²)/γ²` of the band: the band ends where the
 //!   estimate is 30 times noisier than it typically is, but never demands more than
 //!   γ² = 0.95 nor accepts less than 0.8. An isolated resonance outside that range whose
-//!   peak line has coherence at the trust level (and a neighbour at least 0.8) extends it
-//!   to the lines around the peak with coherence ≥ 0.8: the fit weights the lines between
-//!   by their coherence (a pose identified alone; see [`plan_pose`]). `--fmin/--fmax` only
-//!   narrow the result.
+//!   peak line has coherence at the trust level or [`RESONANCE_PEAK_COHERENCE`] (and a
+//!   neighbour at least 0.8) extends it to the lines around the peak with coherence ≥ 0.8:
+//!   the fit weights the lines between by their coherence (a pose identified alone, or a
+//!   campaign where most poses hold such a resonance; see [`plan_pose`]). `--fmin/--fmax`
+//!   only narrow the result.
 //! * **Channels.** With `n` averages, the coherence of a channel without any response
 //!   to the force exceeds `x = 1 − 0.01^{1/(n−1)}` on 1 % of the lines (γ² of pure noise
 //!   is Beta(1, n−1) distributed). A channel whose coherence exceeds `x` on fewer than
@@ -89,9 +90,11 @@ pub fn null_coherence_99(n: usize) -> f64 {
 /// Decides band and channels for one pose (module docs). `forced` lists channels the
 /// campaign keeps out whatever this pose says (decided over all poses); `user_band`
 /// narrows the band; `isolated_resonances` lets an isolated coherent resonance extend the
-/// trusted band (a pose identified alone: in a campaign, a band a few hertz lower flipped
-/// which variant the campaign kept and cost the lumped random machine 2's measured poses
-/// 6 points, mean 95.6 -> 89.6 % vs the truth, worst pose 92 -> 65 %).
+/// trusted band (a pose identified alone; a campaign's poses get their plans without it,
+/// and the campaign's one band moves to such resonances only when most poses hold one:
+/// every pose's own extension moved the median edge by a few hertz, which flipped the
+/// variant the campaign kept and cost the lumped random machine 2's measured poses 6
+/// points, mean 95.6 -> 89.6 % vs the truth, worst pose 92 -> 65 %).
 pub fn plan_pose(
     frf: &Frf,
     facts: &EstimateFacts,
@@ -322,6 +325,14 @@ fn trusted_range(fb: &[f64], g: &[f64]) -> Option<Trusted> {
 /// 62 Hz mode's lower flank showed "peaks" at 44 and 46 Hz without it).
 pub const RESONANCE_PROMINENCE: f64 = 1.5;
 
+/// Coherence on an isolated resonance's peak line that lets it extend the band even when
+/// the trust level is higher: with `n` averages the estimate's relative scatter there is
+/// about `sqrt((1 − γ²)/(2nγ²))`, 7.5 % at γ² = 0.9 and 10 hits, and pure noise reaches it
+/// with probability `0.1^(n−1)`. The second generator's 73 Hz mode, the largest
+/// receptance peak of its machine, shows 0.87-0.95 on its peak line at most poses (1/f
+/// accelerometer noise over ω² sinks its flanks), and the trust level 0.95 left it out.
+pub const RESONANCE_PEAK_COHERENCE: f64 = 0.9;
+
 /// The trusted range grown to the isolated resonances outside it, and those resonances.
 struct Resonances {
     first: usize,
@@ -333,7 +344,8 @@ struct Resonances {
 /// Isolated resonances outside the trusted lines `first..=last` of a channel (frequencies
 /// `fb`, raw coherence `g`, magnitude `mag`) that its data hold with confidence: the
 /// magnitude's maximum over ±1/6 octave and [`RESONANCE_PROMINENCE`] times the lowest
-/// magnitude there on each side, coherence at least `trust` on the peak line and
+/// magnitude there on each side, coherence at least `trust` (or
+/// [`RESONANCE_PEAK_COHERENCE`] when lower) on the peak line and
 /// at least [`MIN_TRUST_COHERENCE`] on a neighbour. The range grows to the run of lines
 /// around each such peak with coherence at least [`MIN_TRUST_COHERENCE`]. A mode whose
 /// flanks sink into low-frequency sensor noise (1/f accelerometer noise divided by ω²)
@@ -362,7 +374,7 @@ fn coherent_resonances(
             fb.partition_point(|&x| x <= fb[k] * r),
         );
         let low = |side: &[f64]| side.iter().copied().fold(f64::INFINITY, f64::min);
-        g[k] >= trust
+        g[k] >= trust.min(RESONANCE_PEAK_COHERENCE)
             && ((k > 0 && g[k - 1] >= MIN_TRUST_COHERENCE)
                 || (k + 1 < n && g[k + 1] >= MIN_TRUST_COHERENCE))
             && mag[a..b].iter().all(|&m| m <= mag[k])

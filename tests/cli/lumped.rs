@@ -317,6 +317,22 @@ fn lumped_campaign_twin_fits_the_truth_at_measured_and_unmeasured_poses() {
         "measured worst {worst:.2} % ({measured:.1?})"
     );
     assert!(u_worst >= 75.0, "unmeasured {unmeasured:.2?}");
+    // 30-2500 Hz: the 73 Hz x mode, the largest receptance peak, is in the twin (its
+    // coherence is 0.87-0.95 on its peak line, its flanks sink into 1/f sensor noise);
+    // without it the measured poses fitted 43 % mean in xx and yy
+    let wide = (30.0, 2500.0);
+    let wide_fits: Vec<f64> = (grid.iter())
+        .flat_map(|&p| {
+            [(0, 0), (1, 1)]
+                .map(|c| twin_vs_loaded_truth(&twin, &machine, p, c, wide, setup.tip_mass))
+        })
+        .collect();
+    let wide_mean = wide_fits.iter().sum::<f64>() / wide_fits.len() as f64;
+    eprintln!("30-2500 Hz: measured poses xx, yy mean {wide_mean:.2} % ({wide_fits:.1?})");
+    assert!(
+        wide_mean >= 65.0,
+        "30-2500 Hz mean {wide_mean:.2} % ({wide_fits:.1?})"
+    );
 }
 
 /// A logarithmic sweep 20-2500 Hz along x at the centre (displacement sensor, 8 s then
