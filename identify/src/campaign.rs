@@ -1253,6 +1253,20 @@ fn track_across_poses(
     Ok((notes, refused))
 }
 
+/// Pose `f`'s numerators (and residuals) solved again for the poles of `model` (unwindowed,
+/// as pose models are kept): fitted in the windowed domain of the pose's FRF.
+fn resolve_numerators(f: &PoseFit, mut model: ModalModel) -> Result<ModalModel> {
+    if let Some(s) = f.sigma {
+        model.shift_poles(-s);
+    }
+    let w = crate::rational_fit::weights(&f.fitted, &f.options);
+    let mut solved = crate::rational_fit::solve_numerators(&model, &f.fitted, &w, &f.options)?;
+    if let Some(s) = f.sigma {
+        solved.shift_poles(s);
+    }
+    Ok(solved)
+}
+
 /// A tracked mode that the refinement carried outside its pose's band with a half-power
 /// band narrower than one line is not fixed by any line: as an out-of-band term it gets
 /// the damping of a one-line half-power band (`ζ = Δf / 2f`), and that pose's numerators
@@ -1287,15 +1301,7 @@ fn damp_unresolved_outside(fits: &mut [PoseFit]) -> Result<()> {
         if changed.is_empty() {
             continue;
         }
-        if let Some(s) = f.sigma {
-            m.shift_poles(-s);
-        }
-        let w = crate::rational_fit::weights(&f.fitted, &f.options);
-        let mut solved = crate::rational_fit::solve_numerators(&m, &f.fitted, &w, &f.options)?;
-        if let Some(s) = f.sigma {
-            solved.shift_poles(s);
-        }
-        f.model = solved;
+        f.model = resolve_numerators(f, m)?;
         f.plan.alternatives.push(format!(
             "tracked mode(s) outside the band narrower than one line ({:.2} Hz), which no line \
              fixes: damped to a one-line half-power band, numerators solved again: {}",
@@ -1862,14 +1868,7 @@ fn common_residual_poles(fits: &mut [PoseFit], freeze: Freeze) -> Result<(Vec<St
                 m.modes[k].wn = wn;
                 m.modes[k].zeta = zeta;
             }
-            if let Some(s) = f.sigma {
-                m.shift_poles(-s);
-            }
-            let w = crate::rational_fit::weights(&f.fitted, &f.options);
-            let mut solved = crate::rational_fit::solve_numerators(&m, &f.fitted, &w, &f.options)?;
-            if let Some(s) = f.sigma {
-                solved.shift_poles(s);
-            }
+            let solved = resolve_numerators(f, m)?;
             drop = drop.max(b - pose_fit(f, &solved));
             models.push(solved);
         }
