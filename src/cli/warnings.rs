@@ -60,19 +60,27 @@ fn parse(w: &str) -> Parsed<'_> {
     }
 }
 
-/// Splits `s` at its unsigned decimal numbers (`12`, `3.5`, `1e-3`).
+/// Splits `s` at its decimal numbers (`12`, `3.5`, `1e-3`, `-20.4`: a minus sign belongs to
+/// the number unless it follows a digit, a letter or a bracket, as in the range `42-3432`).
 fn split_numbers(s: &str) -> (Vec<&str>, Vec<(&str, f64)>) {
     let b = s.as_bytes();
     let (mut text, mut nums) = (Vec::new(), Vec::new());
     let (mut start, mut i) = (0, 0);
     while i < b.len() {
+        let signed = b[i] == b'-'
+            && i + 1 < b.len()
+            && b[i + 1].is_ascii_digit()
+            && (i == 0 || !(b[i - 1].is_ascii_alphanumeric() || b[i - 1] == b')'));
         if b[i].is_ascii_alphabetic() || b[i] == b'_' {
             // a word, digits in it included (`xx2`, `h1`, `g04_x`)
             while i < b.len() && (b[i].is_ascii_alphanumeric() || b[i] == b'_') {
                 i += 1;
             }
-        } else if b[i].is_ascii_digit() {
+        } else if b[i].is_ascii_digit() || signed {
             let n0 = i;
+            if signed {
+                i += 1;
+            }
             while i < b.len() && b[i].is_ascii_digit() {
                 i += 1;
             }
@@ -196,6 +204,9 @@ fn group_line(g: &Group<'_>) -> String {
             } else if (j > 0 && range_sign(t)) || range_sign(&text[j + 1]) {
                 // one end of a range `a..b`: bracket its spread
                 msg.push_str(&format!("({}–{})", lo.0, hi.0));
+            } else if lo.1 < 0.0 {
+                // `-20.4–73.3` reads as a subtraction: spell the range out
+                msg.push_str(&format!("{} to {}", lo.0, hi.0));
             } else {
                 msg.push_str(&format!("{}–{}", lo.0, hi.0));
             }
@@ -284,6 +295,24 @@ mod tests {
         assert_eq!(
             summarise(&w, false)[0],
             "warning: POOR FIT at 2 poses, channel yx: fits at 73.0–84.3 % in (48–77)-3040 Hz"
+        );
+    }
+
+    /// Negative fits keep their sign: the range runs from the lowest to the highest value.
+    #[test]
+    fn negative_numbers_keep_their_sign_in_a_range() {
+        let w = vec![
+            "POOR FIT at pose (0.1, 0.1, 0.05) m, channel zx: fits at -0.8 % in 69-2293 Hz"
+                .to_string(),
+            "POOR FIT at pose (0.4, 0.1, 0.05) m, channel zx: fits at -239.9 % in 69-2293 Hz"
+                .to_string(),
+            "POOR FIT at pose (0.7, 0.1, 0.05) m, channel zx: fits at 12.5 % in 69-2293 Hz"
+                .to_string(),
+        ];
+        let out = summarise(&w, false);
+        assert!(
+            out[0].contains("fits at -239.9 to 12.5 % in 69-2293 Hz"),
+            "{out:?}"
         );
     }
 
