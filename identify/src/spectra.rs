@@ -1008,59 +1008,6 @@ impl Accumulator {
         }
     }
 
-    /// [`Accumulator::add_output`] of two consecutive segments of a single input in one
-    /// pass over the lines (`fs`: their force spectra, `ys`: their output `o` spectra,
-    /// line k at index k): each sum gets the first segment's term, then the second's, as
-    /// two calls would add them (the same sums bit for bit), but every sum is read and
-    /// written once for both. The first output's pass (`o == 0`) adds the force's auto
-    /// spectrum too.
-    fn add_output_pair(
-        &mut self,
-        o: usize,
-        fs: [&[Complex64]; 2],
-        ys: [&[Complex64]; 2],
-        scale: Option<&[Complex64]>,
-    ) {
-        let nl = self.nl;
-        let (fs, ys) = (fs.map(|f| &f[1..=nl]), ys.map(|y| &y[1..=nl]));
-        let gyy = &mut self.gyy[o * nl..][..nl];
-        let gfy = &mut self.gfy[o * nl..][..nl];
-        let gff = if o == 0 {
-            &mut self.gff1[..nl]
-        } else {
-            &mut [][..]
-        };
-        match scale {
-            Some(s) => pair_pass(gfy, gyy, gff, fs, ys, |k, y| y * s[k]),
-            None => pair_pass(gfy, gyy, gff, fs, ys, |_, y| y),
-        }
-    }
-
-    /// [`Accumulator::add_output_pair`] of outputs 0 and 1 in one pass (the force
-    /// spectra read once for both), with the force's auto spectrum.
-    fn add_outputs01_pair(
-        &mut self,
-        fs: [&[Complex64]; 2],
-        ys0: [&[Complex64]; 2],
-        ys1: [&[Complex64]; 2],
-        scale: Option<&[Complex64]>,
-    ) {
-        let nl = self.nl;
-        let (fs, ys0, ys1) = (
-            fs.map(|v| &v[1..=nl]),
-            ys0.map(|v| &v[1..=nl]),
-            ys1.map(|v| &v[1..=nl]),
-        );
-        let (gyy0, gyy1) = self.gyy.split_at_mut(nl);
-        let (gfy0, gfy1) = self.gfy.split_at_mut(nl);
-        let (o0, o1) = ((gfy0, gyy0), (&mut gfy1[..nl], &mut gyy1[..nl]));
-        let gff = &mut self.gff1[..nl];
-        match scale {
-            Some(s) => pair_pass2(o0, o1, gff, fs, ys0, ys1, |k, y| y * s[k]),
-            None => pair_pass2(o0, o1, gff, fs, ys0, ys1, |_, y| y),
-        }
-    }
-
     /// Index of line `k` of the spectrum `a` (`a` = `i * ni + j` in `gff`, `i * no + o` in
     /// `gfy`, `o` in `gyy`): channel-major, so that adding a segment runs along the lines.
     #[inline]
@@ -1429,7 +1376,7 @@ impl LineChunk<'_> {
     }
 }
 
-/// The lines of [`Accumulator::add_output_pair`]: `gfy += conj(f) y`, `gyy += |y|²` and,
+/// The lines of two consecutive segments of one input ([`half::add_pair`]): `gfy += conj(f) y`, `gyy += |y|²` and,
 /// when `gff` is not empty, `gff += |f|²`, segment `a`'s term before `b`'s, `y` through
 /// `scale` (line index, spectrum) on the way. (Written for two segments: a loop over a
 /// group of them, unrolled by the compiler, measured 5 % slower; four segments per
@@ -1989,7 +1936,11 @@ impl Welch {
         if self.spectra.is_empty() {
             self.spectra.push(Spectra::default());
         }
-        if inputs == 1 && segments.iter().all(|s| s.len() > 1) && segments.len() >= 2 {
+        if inputs == 1
+            && segments.iter().all(|s| s.len() > 1)
+            && segments.len() >= 2
+            && half::HalfDft::fits(window.len())
+        {
             return self.add_in_pairs(acc, conv, segments);
         }
         let sp = &mut self.spectra[0];
@@ -2029,84 +1980,108 @@ impl Welch {
 }
 
 impl Welch {
-    /// [`Welch::add_one_by_one`] for one input, two segments at a time: both forces'
-    /// spectra, then both segments' spectra of the first two outputs and one pass over
-    /// the lines that adds the four ([`Accumulator::add_outputs01_pair`]), a third output
-    /// in a pass of its own ([`Accumulator::add_output_pair`]); an odd last segment
-    /// alone. Each sum is read and written once per pair (the sums outweigh the spectra
-    /// in memory traffic: on case a of the peers' benchmark the estimate went from
-    /// 1.40-1.48 to 1.27-1.35 times its FFT floor, on-CPU); the same sums, bit for bit.
+    /// [`Welch::add_one_by_one`] for one input and a segment length that is a multiple
+    /// of 4 ([`half::HalfDft::fits`]), two segments at a time: each channel of both
+    /// segments windowed straight into its spectrum's buffer and transformed in place by
+    /// the complex FFT of half the length, then one pass over the lines that
+    /// post-processes them as realfft does and adds them ([`half::add_pair`]: outputs 0
+    /// and 1 with the force's auto spectrum, the force spectra read once for both; any
+    /// further output in a pass of its own); an odd last segment alone. Each sum is read
+    /// and written once per pair, realfft's own post-processing pass and the spectra's
+    /// second read are saved, and there is no input buffer beside the spectra: on case a
+    /// of the peers' benchmark the estimate went from 1.36-1.41 to 1.32-1.34 times its FFT
+    /// floor (realfft's transforms), on-CPU; the same sums, bit for bit.
     fn add_in_pairs(
         &mut self,
         acc: &mut Accumulator,
         conv: Option<&[Complex64]>,
         segments: &[Vec<&[f64]>],
     ) -> Result<bool> {
-        let (plan, window) = (&*self.plan, &*self.window);
+        let window = &*self.window;
+        let n = window.len();
+        let dft = half::HalfDft::new(n);
         if self.spectra.len() < 2 {
             self.spectra.resize_with(2, Spectra::default);
         }
         let pairs = segments.chunks_exact(2);
         let last = pairs.remainder();
         let sp = &mut self.spectra[..2];
-        let done = BUFFERS.with_borrow_mut(|(buf, scratch)| {
-            buf.resize(window.len(), 0.0);
-            scratch.resize(plan.get_scratch_len(), Complex64::default());
+        let nl = acc.nl;
+        let done = half::SCRATCH.with_borrow_mut(|scratch| {
+            scratch.resize(dft.scratch_len(), Complex64::default());
+            // x windowed straight into the spectrum's buffer and transformed in place (the
+            // same numbers as out of place, with one buffer fewer in the cache: case a of
+            // the peers' benchmark 1.40-1.43 -> 1.32-1.35 times its floor); false: a
+            // sample not finite
+            let mut run = |x: &[f64], dst: &mut Vec<Complex64>, check: bool| {
+                dst.resize(n / 2, Complex64::default());
+                let samples = half::as_samples(dst);
+                let finite = if check {
+                    fill_windowed(samples, x, window)
+                } else {
+                    fill_windowed_unchecked(samples, x, window)
+                };
+                dft.fft.process_with_scratch(dst, scratch);
+                finite
+            };
             for pair in pairs {
+                let outputs = pair[0].len() - 1;
                 for (seg, sp) in pair.iter().zip(sp.iter_mut()) {
                     sp.fs.resize_with(1, Vec::new);
-                    sp.ys.resize_with(sp.ys.len().max(1), Vec::new);
+                    sp.ys.resize_with(sp.ys.len().max(outputs.min(2)), Vec::new);
                     // (the callers checked the forces)
-                    fill_windowed_unchecked(buf, seg[0], window);
-                    transform(plan, buf, &mut sp.fs[0], scratch, None)?;
-                }
-                // the first two outputs in one pass (the force spectra read once for
-                // both: the estimate of case a of the peers' benchmark 4-5 % faster,
-                // 1.26-1.29 -> 1.22-1.23 times the slower floor the criterion bench timed
-                // then), a third alone
-                let outputs = pair[0].len() - 1;
-                let fused = outputs >= 2;
-                if fused {
-                    for (seg, sp) in pair.iter().zip(sp.iter_mut()) {
-                        sp.ys.resize_with(2, Vec::new);
-                        for o in 0..2 {
-                            if !fill_windowed(buf, seg[1 + o], window) {
-                                return Ok(false);
-                            }
-                            transform(plan, buf, &mut sp.ys[o], scratch, None)?;
+                    run(seg[0], &mut sp.fs[0], false);
+                    for o in 0..outputs.min(2) {
+                        if !run(seg[1 + o], &mut sp.ys[o], true) {
+                            return false;
                         }
                     }
-                    acc.add_outputs01_pair(
-                        [&sp[0].fs[0], &sp[1].fs[0]],
-                        [&sp[0].ys[0], &sp[1].ys[0]],
-                        [&sp[0].ys[1], &sp[1].ys[1]],
-                        conv,
-                    );
                 }
-                for o in (if fused { 2 } else { 0 })..outputs {
-                    for (seg, sp) in pair.iter().zip(sp.iter_mut()) {
-                        if !fill_windowed(buf, seg[1 + o], window) {
-                            return Ok(false);
+                let fs = [&sp[0].fs[0][..], &sp[1].fs[0][..]];
+                let y = |o: usize| [&sp[0].ys[o][..], &sp[1].ys[o][..]];
+                let (gfy, gyy) = (&mut acc.gfy[..], &mut acc.gyy[..]);
+                let gff = &mut acc.gff1[..nl];
+                if outputs >= 2 {
+                    let (gfy0, gfy1) = gfy.split_at_mut(nl);
+                    let (gyy0, gyy1) = gyy.split_at_mut(nl);
+                    let outs = &mut [(gfy0, gyy0), (&mut gfy1[..nl], &mut gyy1[..nl])];
+                    match conv {
+                        Some(s) => {
+                            half::add_pair(&dft, gff, outs, fs, &[y(0), y(1)], |k, y| y * s[k])
                         }
-                        transform(plan, buf, &mut sp.ys[0], scratch, None)?;
+                        None => half::add_pair(&dft, gff, outs, fs, &[y(0), y(1)], |_, y| y),
                     }
-                    acc.add_output_pair(
-                        o,
-                        [&sp[0].fs[0], &sp[1].fs[0]],
-                        [&sp[0].ys[0], &sp[1].ys[0]],
-                        conv,
-                    );
+                } else {
+                    let outs = &mut [(&mut gfy[..nl], &mut gyy[..nl])];
+                    match conv {
+                        Some(s) => half::add_pair(&dft, gff, outs, fs, &[y(0)], |k, y| y * s[k]),
+                        None => half::add_pair(&dft, gff, outs, fs, &[y(0)], |_, y| y),
+                    }
+                }
+                for o in 2..outputs {
+                    for (seg, sp) in pair.iter().zip(sp.iter_mut()) {
+                        if !run(seg[1 + o], &mut sp.ys[0], true) {
+                            return false;
+                        }
+                    }
+                    let fs = [&sp[0].fs[0][..], &sp[1].fs[0][..]];
+                    let ys = [[&sp[0].ys[0][..], &sp[1].ys[0][..]]];
+                    let outs = &mut [(&mut acc.gfy[o * nl..][..nl], &mut acc.gyy[o * nl..][..nl])];
+                    match conv {
+                        Some(s) => half::add_pair(&dft, &mut [], outs, fs, &ys, |k, y| y * s[k]),
+                        None => half::add_pair(&dft, &mut [], outs, fs, &ys, |_, y| y),
+                    }
                 }
                 acc.averages += 2;
             }
-            Ok(true)
+            true
         });
-        if window.len() > PLAN_CACHE_MAX_LEN {
-            BUFFERS.with_borrow_mut(|b| *b = Default::default());
+        if n > PLAN_CACHE_MAX_LEN {
+            half::SCRATCH.with_borrow_mut(|b| *b = Default::default());
         }
         match done {
-            Ok(true) if !last.is_empty() => self.add_one_by_one(acc, conv, 1, last),
-            d => d,
+            true if !last.is_empty() => self.add_one_by_one(acc, conv, 1, last),
+            d => Ok(d),
         }
     }
 }
@@ -2338,6 +2313,7 @@ fn chirp(records: &[TimeSeries], infos: &[RecordInfo], ctx: &mut Ctx) -> Result<
     Ok(est)
 }
 
+mod half;
 mod impact;
 pub mod operating;
 mod stream;
@@ -2384,16 +2360,24 @@ mod tests {
             .num_threads(1)
             .build()
             .unwrap();
-        for (n, kept) in [(1024, true), (PLAN_CACHE_MAX_LEN + 2, false)] {
+        // (one segment: realfft's transform; two of a multiple of 4: the half-length one)
+        let lengths = [(1024, true), (PLAN_CACHE_MAX_LEN + 2, false)];
+        for ((n, kept), segments) in lengths.into_iter().flat_map(|c| [(c, 1), (c, 2)]) {
+            let n = if segments == 2 { n + n % 4 } else { n };
             let x = vec![1.0; n];
             let held = one.install(|| {
+                // (what earlier cases of smaller lengths kept is not this one's)
+                BUFFERS.with_borrow_mut(|b| *b = Default::default());
+                half::SCRATCH.with_borrow_mut(|b| *b = Default::default());
                 let mut welch = Welch::new(n);
                 let mut acc = Accumulator::new(vec![Axis::X], vec![Axis::X], n_lines(n));
+                let seg = vec![&x[..], &x[..]];
                 welch
-                    .add_segments(&mut acc, None, 1, &[vec![&x[..], &x[..]]])
+                    .add_segments(&mut acc, None, 1, &vec![seg; segments])
                     .unwrap();
-                assert_eq!(acc.averages, 1);
+                assert_eq!(acc.averages, segments);
                 BUFFERS.with_borrow(|(b, s)| b.capacity() + s.capacity())
+                    + half::SCRATCH.with_borrow(Vec::capacity)
             });
             assert_eq!(held > 0, kept, "n {n}: {held} buffer elements held");
         }
@@ -2429,9 +2413,10 @@ mod tests {
 
     #[test]
     fn one_thread_in_pairs_equals_the_parallel_batches_bit_for_bit() {
-        // one force, two and three responses (the first two added in one pass, a third
-        // alone), an odd number of segments (the last one alone), with and without the
-        // acceleration-to-displacement scale
+        // one force, one, two and three responses (the first two added in one pass, a
+        // third alone), an odd number of segments (the last one alone), with and without
+        // the acceleration-to-displacement scale; segments of a multiple of 4 (realfft's
+        // transform opened up, `half`) and of 2 modulo 4 (one segment at a time)
         let n = 5 * 512 + 37;
         let noise = |seed: u64| -> Vec<f64> {
             let mut x = seed.wrapping_mul(6364136223846793005).wrapping_add(1);
@@ -2453,20 +2438,22 @@ mod tests {
                 .collect()
         };
         let kinds = [ResponseKind::Displacement, ResponseKind::Acceleration];
-        for (kind, outputs) in kinds.into_iter().flat_map(|k| [(k, 2), (k, 3)]) {
+        let cases = (kinds.into_iter().flat_map(|k| [(k, 1), (k, 2), (k, 3)]))
+            .flat_map(|c| [(c, 1024), (c, 1026)]);
+        for ((kind, outputs), nfft) in cases {
             let rec = TimeSeries {
                 dt: 1e-3,
                 force: [Some(f.clone()), None, None],
                 response: [
                     Some(y(2, 1.0)),
-                    Some(y(3, -0.3)),
+                    (outputs >= 2).then(|| y(3, -0.3)),
                     (outputs == 3).then(|| y(4, 0.7)),
                 ],
                 response_kind: Some(kind),
                 ..TimeSeries::default()
             };
             let opts = FrfOptions {
-                nfft: Some(1024),
+                nfft: Some(nfft),
                 excitation: Excitation::Continuous,
                 ..FrfOptions::default()
             };
@@ -2486,7 +2473,7 @@ mod tests {
                         .map(f64::to_bits)
                         .collect()
                 };
-                assert_eq!(bits(a), bits(b), "{kind:?}, {outputs} outputs");
+                assert_eq!(bits(a), bits(b), "{kind:?}, {outputs} outputs, nfft {nfft}");
             }
         }
     }
