@@ -491,9 +491,8 @@ impl ForceStats {
                 (s1, s2, lo, hi) = (s1 + d, s2 + q, lo.min(l), hi.max(h));
                 let first = start + b * STATS_BLOCK;
                 let skip = (stride - first % stride) % stride;
-                // (chunks: an iterator of known length, the first sample of each)
-                let picked = block.get(skip..).unwrap_or(&[]).chunks(stride);
-                subsample.extend(picked.map(|c| c[0]));
+                let picked = block.get(skip..).unwrap_or(&[]).iter().step_by(stride);
+                subsample.extend(picked.copied());
             }
             sums.push((c, s1, s2, n as f64));
         }
@@ -691,7 +690,8 @@ const PLAN_CACHE: usize = 4;
 const PLAN_CACHE_MAX_LEN: usize = 1 << 20;
 
 type Plan = Arc<dyn RealToComplex<f64>>;
-type Cache<T> = std::cell::RefCell<Vec<(usize, T)>>;
+/// A per-thread cache ([`kept`]): entries by key (a length unless said), most recent last.
+type Cache<T, K = usize> = std::cell::RefCell<Vec<(K, T)>>;
 
 thread_local! {
     /// Real-FFT plans of the last [`PLAN_CACHE`] DFT lengths, most recent last.
@@ -712,18 +712,29 @@ fn kept<T: Clone>(
     n: usize,
     make: impl FnOnce() -> T,
 ) -> T {
-    if n > PLAN_CACHE_MAX_LEN {
+    kept_by(cache, n, n, make)
+}
+
+/// [`kept`] by any key, for an entry of `len` elements (kept up to
+/// [`PLAN_CACHE_MAX_LEN`]).
+fn kept_by<K: PartialEq + Copy, T: Clone>(
+    cache: &'static std::thread::LocalKey<Cache<T, K>>,
+    key: K,
+    len: usize,
+    make: impl FnOnce() -> T,
+) -> T {
+    if len > PLAN_CACHE_MAX_LEN {
         return make();
     }
     cache.with_borrow_mut(|c| {
-        if let Some(i) = c.iter().position(|(m, _)| *m == n) {
+        if let Some(i) = c.iter().position(|(m, _)| *m == key) {
             let hit = c.remove(i);
             c.push(hit);
         } else {
             if c.len() == PLAN_CACHE {
                 c.remove(0);
             }
-            c.push((n, make()));
+            c.push((key, make()));
         }
         c[c.len() - 1].1.clone()
     })
@@ -851,14 +862,27 @@ thread_local! {
     static SUMS: std::cell::RefCell<KeptSums> = const { std::cell::RefCell::new((Vec::new(), Vec::new())) };
 }
 
-/// `len` zeros in a buffer this thread kept ([`SUMS_KEPT`]) or a new one.
-fn zeroed<T: Copy + Default>(pool: &mut Vec<Vec<T>>, len: usize) -> Vec<T> {
-    let mut v = pool
-        .iter()
+/// A buffer of capacity `len` or more this thread kept ([`SUMS_KEPT`]), or a new one.
+fn take_kept<T>(pool: &mut Vec<Vec<T>>, len: usize) -> Vec<T> {
+    pool.iter()
         .position(|v| v.capacity() >= len)
         .map(|i| pool.swap_remove(i))
-        .unwrap_or_default();
+        .unwrap_or_default()
+}
+
+/// `len` zeros in a buffer this thread kept ([`SUMS_KEPT`]) or a new one.
+fn zeroed<T: Copy + Default>(pool: &mut Vec<Vec<T>>, len: usize) -> Vec<T> {
+    let mut v = take_kept(pool, len);
     v.clear();
+    v.resize(len, T::default());
+    v
+}
+
+/// `len` elements in a buffer this thread kept ([`SUMS_KEPT`]) or a new one, its old
+/// contents left in place (for a caller that writes every element).
+fn reused<T: Copy + Default>(pool: &mut Vec<Vec<T>>, len: usize) -> Vec<T> {
+    let mut v = take_kept(pool, len);
+    v.truncate(len);
     v.resize(len, T::default());
     v
 }
@@ -1093,7 +1117,8 @@ impl Accumulator {
                 OctaveSmoother::new((0..self.nl).map(raw), 1.0 / 12.0)
             };
             SUMS.with_borrow_mut(|(_, kept)| {
-                let mut v = zeroed(kept, self.nl);
+                // (every line is written below: no zeros first)
+                let mut v = reused(kept, self.nl);
                 for (k, x) in v.iter_mut().enumerate() {
                     *x = s.at(k + 1);
                 }
@@ -1250,24 +1275,57 @@ fn band_around_peak(n: usize, p: impl Fn(usize) -> f64, lim: f64) -> Option<(usi
 
 /// [`crate::plan::smooth_octave`] on the lines `1, 2, …, n`, line by line from the
 /// prefix sums of the values: each window's ends are counted from its edge frequencies
-/// instead of walked to (the walk's branches are taken at random on a fine grid).
+/// instead of walked to (the walk's branches are taken at random on a fine grid), and
+/// kept per thread for the last few `(n, octaves)` ([`window_ends`]: a campaign smooths
+/// many spectra of one length, and the ends cost two divisions and three conversions a
+/// line, more than the smoothing itself).
 struct OctaveSmoother {
-    r: f64,
+    /// `ends[k - 1]` = `[a, b]`: line k's window is the lines `a + 1 ..= b`.
+    ends: Ends,
     /// `pre[j]` = sum of the first `j` values.
     pre: Vec<f64>,
 }
 
+/// Window ends of [`OctaveSmoother`], by line count and octaves (their bits).
+type Ends = Arc<[[usize; 2]]>;
+
+thread_local! {
+    /// The window ends of [`OctaveSmoother`] of the last [`PLAN_CACHE`] lengths.
+    static WINDOW_ENDS: Cache<Ends, (usize, u64)> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
+/// The window ends of [`OctaveSmoother`] on the lines `1..=n` ([`kept_by`]).
+fn window_ends(n: usize, octaves: f64) -> Ends {
+    kept_by(&WINDOW_ENDS, (n, octaves.to_bits()), n, || {
+        let r = 2f64.powf(octaves);
+        (1..=n)
+            .map(|k| {
+                // the conversions through i64 (one instruction each, exact: line numbers
+                // and counts are far below 2^53, and lo > 0)
+                let f = k as i64 as f64;
+                // a = #{lines j < f / r}, b = #{lines j ≤ f · r}, lines j = 1..=n
+                let lo = f / r;
+                let t = lo as i64; // ⌊lo⌋ (lo > 0)
+                let a = ((t - i64::from(t as f64 == lo)) as usize).min(n);
+                let b = ((f * r) as i64 as usize).min(n);
+                [a, b]
+            })
+            .collect()
+    })
+}
+
 impl OctaveSmoother {
     fn new(v: impl ExactSizeIterator<Item = f64>, octaves: f64) -> Self {
+        let n = v.len();
         // (written into place: the running sum stays in a register)
-        let mut pre = vec![0.0; v.len() + 1];
+        let mut pre = vec![0.0; n + 1];
         let mut last = 0.0;
         for (p, x) in pre[1..].iter_mut().zip(v) {
             last += x;
             *p = last;
         }
         OctaveSmoother {
-            r: 2f64.powf(octaves),
+            ends: window_ends(n, octaves),
             pre,
         }
     }
@@ -1275,15 +1333,7 @@ impl OctaveSmoother {
     /// The smoothed value of line `k` (1-based, `k ≤ n`).
     #[inline]
     fn at(&self, k: usize) -> f64 {
-        let n = self.pre.len() - 1;
-        // the conversions through i64 (one instruction each, exact: line numbers and
-        // counts are far below 2^53, and lo > 0)
-        let f = k as i64 as f64;
-        // a = #{lines j < f / r}, b = #{lines j ≤ f · r}, lines j = 1..=n
-        let lo = f / self.r;
-        let t = lo as i64; // ⌊lo⌋ (lo > 0)
-        let a = ((t - i64::from(t as f64 == lo)) as usize).min(n);
-        let b = ((f * self.r) as i64 as usize).min(n);
+        let [a, b] = self.ends[k - 1];
         (self.pre[b] - self.pre[a]) / (b - a).max(1) as i64 as f64
     }
 }
@@ -2013,26 +2063,27 @@ impl Welch {
             // same numbers as out of place, with one buffer fewer in the cache: case a of
             // the peers' benchmark 1.40-1.43 -> 1.32-1.35 times its floor); false: a
             // sample not finite
-            let mut run = |x: &[f64], dst: &mut Vec<Complex64>, check: bool| {
-                dst.resize(n / 2, Complex64::default());
-                let samples = half::as_samples(dst);
-                let finite = if check {
-                    fill_windowed(samples, x, window)
-                } else {
-                    fill_windowed_unchecked(samples, x, window)
+            let run =
+                |x: &[f64], dst: &mut Vec<Complex64>, check: bool, scratch: &mut [Complex64]| {
+                    dst.resize(n / 2, Complex64::default());
+                    let samples = half::as_samples(dst);
+                    let finite = if check {
+                        fill_windowed(samples, x, window)
+                    } else {
+                        fill_windowed_unchecked(samples, x, window)
+                    };
+                    dft.fft.process_with_scratch(dst, scratch);
+                    finite
                 };
-                dft.fft.process_with_scratch(dst, scratch);
-                finite
-            };
             for pair in pairs {
                 let outputs = pair[0].len() - 1;
                 for (seg, sp) in pair.iter().zip(sp.iter_mut()) {
                     sp.fs.resize_with(1, Vec::new);
                     sp.ys.resize_with(sp.ys.len().max(outputs.min(2)), Vec::new);
                     // (the callers checked the forces)
-                    run(seg[0], &mut sp.fs[0], false);
+                    run(seg[0], &mut sp.fs[0], false, scratch);
                     for o in 0..outputs.min(2) {
-                        if !run(seg[1 + o], &mut sp.ys[o], true) {
+                        if !run(seg[1 + o], &mut sp.ys[o], true, scratch) {
                             return false;
                         }
                     }
@@ -2060,7 +2111,7 @@ impl Welch {
                 }
                 for o in 2..outputs {
                     for (seg, sp) in pair.iter().zip(sp.iter_mut()) {
-                        if !run(seg[1 + o], &mut sp.ys[0], true) {
+                        if !run(seg[1 + o], &mut sp.ys[0], true, scratch) {
                             return false;
                         }
                     }
