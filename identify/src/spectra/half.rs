@@ -1,14 +1,18 @@
 //! realfft's even-length real-to-complex transform opened up, for the one-thread Welch
 //! pairs: the complex FFT of half the length over the samples taken in pairs (rustfft,
-//! planned as realfft plans it), and the post-processing that turns its output into the
-//! half spectrum done line by line where the lines are added to the sums.
+//! planned as realfft plans it), run in place in the spectrum's own buffer, and the
+//! post-processing that turns its output into the half spectrum done in blocks of line
+//! pairs just before the lines are added to the sums.
 //!
 //! realfft post-processes its output in a pass of its own (every line read and written
 //! once more), and the Welch sums then read every line again; here each line of the
 //! complex FFT's output is read once, post-processed with realfft's own arithmetic and
-//! twiddles and added to the sums at once. The half spectra and so the sums are the same
-//! bit for bit as realfft's added by [`super::pair_pass2`]
-//! (`cargo run --release -p identify --example frf_hash`).
+//! twiddles (realfft 3.5) and added. The half spectra and so the sums are the same bit
+//! for bit as realfft's added by [`super::pair_pass2`]: `frf_hash`
+//! (`cargo run --release -p identify --example frf_hash`) is unchanged, and the test
+//! `one_thread_in_pairs_equals_the_parallel_batches_bit_for_bit` compares this route
+//! with the parallel batches, which keep realfft's transform, so a realfft whose
+//! arithmetic changed would fail it.
 
 use super::{kept, Cache};
 use num_complex::Complex64;
