@@ -133,7 +133,8 @@ fn post_block(tw: &[Complex64], v: &[Complex64], j0: usize, out: &mut Lines) {
 /// auto spectrum, line k = 1 .. n/2 - 1 of each post-processed as realfft does: the same
 /// terms in the same order as realfft's spectra added by [`super::pair_pass`] /
 /// [`super::pair_pass2`], the same sums bit for bit. `scale` (sum index, response line)
-/// is applied to each response line on the way.
+/// is applied to each response line on the way. Two outputs come with the force's auto
+/// spectrum (`gff` not empty), as [`super::pair_pass2`] adds it.
 pub(super) fn add_pair(
     dft: &HalfDft,
     gff: &mut [f64],
@@ -145,6 +146,10 @@ pub(super) fn add_pair(
     let c = dft.twiddles.len() + 1; // the centre line, n/4
     let h = 2 * c; // n/2: the FFT's length; the sums hold lines 1 .. h - 1
     let no = outs.len().min(ys.len()).min(2);
+    debug_assert!(
+        no < 2 || !gff.is_empty(),
+        "two outputs without the force's sums"
+    );
     let fs = fs.map(|f| &f[..h]);
     let mut pf = [[[Complex64::ZERO; BLOCK]; 2]; 2];
     let mut py = [[[[Complex64::ZERO; BLOCK]; 2]; 2]; 2];
