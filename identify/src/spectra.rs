@@ -2096,18 +2096,10 @@ impl Welch {
                     let (gfy0, gfy1) = gfy.split_at_mut(nl);
                     let (gyy0, gyy1) = gyy.split_at_mut(nl);
                     let outs = &mut [(gfy0, gyy0), (&mut gfy1[..nl], &mut gyy1[..nl])];
-                    match conv {
-                        Some(s) => {
-                            half::add_pair(&dft, gff, outs, fs, &[y(0), y(1)], |k, y| y * s[k])
-                        }
-                        None => half::add_pair(&dft, gff, outs, fs, &[y(0), y(1)], |_, y| y),
-                    }
+                    half::add_pair(&dft, gff, outs, fs, &[y(0), y(1)], conv);
                 } else {
                     let outs = &mut [(&mut gfy[..nl], &mut gyy[..nl])];
-                    match conv {
-                        Some(s) => half::add_pair(&dft, gff, outs, fs, &[y(0)], |k, y| y * s[k]),
-                        None => half::add_pair(&dft, gff, outs, fs, &[y(0)], |_, y| y),
-                    }
+                    half::add_pair(&dft, gff, outs, fs, &[y(0)], conv);
                 }
                 for o in 2..outputs {
                     for (seg, sp) in pair.iter().zip(sp.iter_mut()) {
@@ -2118,10 +2110,7 @@ impl Welch {
                     let fs = [&sp[0].fs[0][..], &sp[1].fs[0][..]];
                     let ys = [[&sp[0].ys[0][..], &sp[1].ys[0][..]]];
                     let outs = &mut [(&mut acc.gfy[o * nl..][..nl], &mut acc.gyy[o * nl..][..nl])];
-                    match conv {
-                        Some(s) => half::add_pair(&dft, &mut [], outs, fs, &ys, |k, y| y * s[k]),
-                        None => half::add_pair(&dft, &mut [], outs, fs, &ys, |_, y| y),
-                    }
+                    half::add_pair(&dft, &mut [], outs, fs, &ys, conv);
                 }
                 acc.averages += 2;
             }

@@ -132,10 +132,27 @@ fn post_block(tw: &[Complex64], v: &[Complex64], j0: usize, out: &mut Lines) {
 /// two segments' FFT outputs of output `o`) and, when `gff` is not empty, to the force's
 /// auto spectrum, line k = 1 .. n/2 - 1 of each post-processed as realfft does: the same
 /// terms in the same order as realfft's spectra added by [`super::pair_pass`] /
-/// [`super::pair_pass2`], the same sums bit for bit. `scale` (sum index, response line)
-/// is applied to each response line on the way. Two outputs come with the force's auto
-/// spectrum (`gff` not empty), as [`super::pair_pass2`] adds it.
+/// [`super::pair_pass2`], the same sums bit for bit. `scale`
+/// (`scale[i]`: line i + 1's factor, the acceleration-to-displacement conversion) multiplies
+/// each response line on the way. Two outputs come with the force's auto spectrum (`gff`
+/// not empty), as [`super::pair_pass2`] adds it.
 pub(super) fn add_pair(
+    dft: &HalfDft,
+    gff: &mut [f64],
+    outs: &mut [OutputSums],
+    fs: [&[Complex64]; 2],
+    ys: &[[&[Complex64]; 2]],
+    scale: Option<&[Complex64]>,
+) {
+    // (one loop each, the unscaled one without the multiplications)
+    match scale {
+        Some(s) => add_pair_by(dft, gff, outs, fs, ys, |k, y| y * s[k]),
+        None => add_pair_by(dft, gff, outs, fs, ys, |_, y| y),
+    }
+}
+
+/// [`add_pair`] with the response lines through `scale` (sum index, line).
+fn add_pair_by(
     dft: &HalfDft,
     gff: &mut [f64],
     outs: &mut [OutputSums],
