@@ -46,12 +46,23 @@ fn centre_twin(dir: &Path, machine: &Machine, seed0: u64) -> (Vec<PathBuf>, Path
 /// one-pose twin of that seed's centre impact test (as
 /// `lumped::effects::write_diagnosis_material` makes them).
 fn diagnose_effect_case(effect: Effect, seed: u64) -> serde_json::Value {
+    diagnose_with_answer(effect, seed).0
+}
+
+/// [`diagnose_effect_case`] with the generator's answer: (diagnosis, answer), both
+/// printed.
+fn diagnose_with_answer(effect: Effect, seed: u64) -> (serde_json::Value, serde_json::Value) {
     let dir = tmp();
     let machine = Machine::nominal();
     let (_, twin) = centre_twin(dir.path(), &machine, seed * 1000 + 700);
     let c = case(&machine, effect, seed);
     let files = write_records(dir.path(), &c);
-    diagnose(&twin, &files, &dir.path().join("out"))
+    let d = diagnose(&twin, &files, &dir.path().join("out"));
+    eprintln!(
+        "seed {seed}: {} {} | truth {}",
+        d["cause"], d["details"], c.answer
+    );
+    (d, c.answer)
 }
 
 /// A case's records written to `dir` under their own names.
@@ -533,22 +544,15 @@ fn healthy_none_because(seed: u64, says: &str) {
 /// dozen lines around 140 Hz and the extended twin's simulation blew up (fit -1e13 %).
 #[test]
 fn lumped_turned_guide_is_named_cross_coupling() {
-    let seed = 4u64;
-    let machine = Machine::nominal();
-    let c = case(&machine, Effect::CrossCoupling, seed);
-    let d = diagnose_effect_case(Effect::CrossCoupling, seed);
+    let (d, answer) = diagnose_with_answer(Effect::CrossCoupling, 4);
     let cause = d["cause"].as_str().unwrap_or("?");
-    eprintln!(
-        "turned guide seed {seed}: {cause} {} | truth {}",
-        d["details"], c.answer
-    );
     assert_eq!(cause, "cross_coupling", "{d}");
     let ch = d["details"]["channel"].as_str().unwrap_or("");
     assert!(ch == "yx" || ch == "xy", "channel {ch}: {d}");
     // the turned guide splits the 137/140 Hz x/y pair; the new cross peak sits at the
     // lower one (a single mode refitted stayed 2 % above it)
     let f = d["details"]["freq_hz"].as_f64().unwrap_or(f64::NAN);
-    let want = c.answer["details"]["freq_hz"].as_f64().unwrap_or(f64::NAN);
+    let want = answer["details"]["freq_hz"].as_f64().unwrap_or(f64::NAN);
     assert!((f / want - 1.0).abs() < 0.01, "freq {f} Hz vs {want}: {d}");
     let (before, after) = (
         d["fit_before_pct"].as_f64().unwrap_or(f64::NAN),
@@ -673,20 +677,11 @@ fn lumped_twin_holds_no_channel_that_runs_away_where_its_coherence_is_low() {
 /// off to 202 Hz (the new mode beside it was named instead).
 #[test]
 fn lumped_joint_change_names_the_mode_that_moved() {
-    let machine = Machine::nominal();
     for seed in [10u64, 18] {
-        let dir = tmp();
-        let (_, twin) = centre_twin(dir.path(), &machine, seed * 1000 + 700);
-        let c = case(&machine, Effect::ModeChange, seed);
-        let files = write_records(dir.path(), &c);
-        let d = diagnose(&twin, &files, &dir.path().join("out"));
-        eprintln!(
-            "seed {seed}: {} {} | truth {}",
-            d["cause"], d["details"], c.answer
-        );
+        let (d, answer) = diagnose_with_answer(Effect::ModeChange, seed);
         assert_eq!(d["cause"], "mode_change", "seed {seed}: {d}");
         let got = |k: &str| d["details"][k].as_f64().unwrap_or(f64::NAN);
-        let want = |k: &str| c.answer["details"][k].as_f64().unwrap_or(f64::NAN);
+        let want = |k: &str| answer["details"][k].as_f64().unwrap_or(f64::NAN);
         assert!(
             (got("freq_hz") / want("freq_hz") - 1.0).abs() < 0.01,
             "seed {seed}: {d}"
@@ -704,18 +699,11 @@ fn lumped_joint_change_names_the_mode_that_moved() {
 /// centroid shift below 0.2 % once ruled the nonlinearity out (`none`).
 #[test]
 fn lumped_strong_level_disagreement_in_a_close_group_is_a_nonlinearity() {
-    let machine = Machine::nominal();
-    let seed = 18u64;
-    let dir = tmp();
-    let (_, twin) = centre_twin(dir.path(), &machine, seed * 1000 + 700);
-    let c = case(&machine, Effect::Nonlinearity, seed);
-    let files = write_records(dir.path(), &c);
-    let d = diagnose(&twin, &files, &dir.path().join("out"));
-    eprintln!("{} {} | truth {}", d["cause"], d["details"], c.answer);
+    let (d, answer) = diagnose_with_answer(Effect::Nonlinearity, 18);
     assert_eq!(d["cause"], "nonlinearity", "{d}");
-    assert_eq!(d["details"]["kind"], c.answer["details"]["kind"], "{d}");
+    assert_eq!(d["details"]["kind"], answer["details"]["kind"], "{d}");
     let got = d["details"]["freq_hz"].as_f64().unwrap_or(f64::NAN);
-    let want = c.answer["details"]["freq_hz"].as_f64().unwrap_or(f64::NAN);
+    let want = answer["details"]["freq_hz"].as_f64().unwrap_or(f64::NAN);
     assert!((got / want - 1.0).abs() < 0.02, "{got} vs {want} Hz");
 }
 
@@ -726,16 +714,9 @@ fn lumped_strong_level_disagreement_in_a_close_group_is_a_nonlinearity() {
 /// refitted keeps the whole response and gains 35 points there.
 #[test]
 fn lumped_pose_dependence_names_the_moving_mode_without_refitting_the_others() {
-    let machine = Machine::nominal();
-    let seed = 6u64;
-    let dir = tmp();
-    let (_, twin) = centre_twin(dir.path(), &machine, seed * 1000 + 700);
-    let c = case(&machine, Effect::PoseDependence, seed);
-    let files = write_records(dir.path(), &c);
-    let d = diagnose(&twin, &files, &dir.path().join("out"));
-    eprintln!("{} {} | truth {}", d["cause"], d["details"], c.answer);
+    let (d, answer) = diagnose_with_answer(Effect::PoseDependence, 6);
     assert_eq!(d["cause"], "pose_dependence", "{d}");
-    let t = &c.answer["details"];
+    let t = &answer["details"];
     assert_eq!(
         d["details"]["axis_of_variation"], t["axis_of_variation"],
         "{d}"

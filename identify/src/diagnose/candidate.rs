@@ -142,6 +142,23 @@ pub(super) fn retune(
     update_modes(model, &[k], pts, retune_prior(), 40)
 }
 
+/// Largest relative frequency distance of two modes retuned together as one pair (the
+/// x and y bending modes of one body, e.g. a tool on its interface, move together; a
+/// turned guide splits them).
+pub(super) const PAIR_MAX_SPACING: f64 = 0.05;
+
+/// The mode of `model` nearest mode `k` within [`PAIR_MAX_SPACING`] among `among`.
+pub(super) fn pair_partner(
+    model: &ModalModel,
+    k: usize,
+    among: impl Iterator<Item = usize>,
+) -> Option<usize> {
+    let f = |i: usize| model.modes[i].freq_hz();
+    among
+        .filter(|&j| j != k && (f(j) / f(k) - 1.0).abs() <= PAIR_MAX_SPACING)
+        .min_by(|&a, &b| (f(a) - f(k)).abs().total_cmp(&(f(b) - f(k)).abs()))
+}
+
 /// The prior of a retune: a mode's frequency may move by up to ~30 %.
 pub(super) fn retune_prior() -> Prior {
     Prior {

@@ -1,6 +1,6 @@
 //! Cause `cross_coupling`: the cross channels the twin lacks.
 
-use super::candidate::{fit_numerators, map_models, retune, retune_prior, Cand};
+use super::candidate::{fit_numerators, map_models, pair_partner, retune, retune_prior, Cand};
 use super::Cause;
 use crate::modal_update::{chi, Points};
 use crate::model::{ChannelModel, ModalModel, ModeNum};
@@ -9,9 +9,6 @@ use serde_json::{json, Map};
 
 /// Largest relative frequency change of a mode refitted as turned into another axis.
 const TURNED_MAX_SHIFT: f64 = 0.05;
-
-/// Largest relative frequency distance of two modes refitted together as a turned pair.
-const TURNED_PAIR_SPACING: f64 = 0.05;
 
 /// The channels the data have and the twin lacks, each fitted with the twin's modes
 /// (numerators only, of the modes near the channel's points); `channel` names the one
@@ -66,7 +63,6 @@ pub(super) fn cand_cross_coupling(twin: &Twin, model: &ModalModel, pts: &[Points
     // 15-30 degrees split the 137/140 Hz pair, the new yx peak at 133 Hz; one mode
     // refitted alone stayed at 135.5-136.4 Hz); of a pair, the mode named is the one
     // with the larger response in the missing channel
-    let f = |m: &ModalModel, k: usize| m.modes[k].freq_hz();
     let n = model.modes.len();
     let turned = fitted[0]
         .num
@@ -74,15 +70,7 @@ pub(super) fn cand_cross_coupling(twin: &Twin, model: &ModalModel, pts: &[Points
         .enumerate()
         .filter(|(_, n)| n.b0 != 0.0 || n.b1 != 0.0)
         .flat_map(|(k, _)| {
-            let pair = (0..n)
-                .filter(|&j| {
-                    j != k && (f(model, j) / f(model, k) - 1.0).abs() <= TURNED_PAIR_SPACING
-                })
-                .min_by(|&a, &b| {
-                    (f(model, a) - f(model, k))
-                        .abs()
-                        .total_cmp(&(f(model, b) - f(model, k)).abs())
-                });
+            let pair = pair_partner(model, k, 0..n);
             let alone = retune(&m0, k, pts).ok().map(|r| (vec![k], r.model));
             let both = pair.and_then(|j| {
                 let mut modes = vec![k, j];

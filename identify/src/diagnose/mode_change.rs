@@ -1,6 +1,6 @@
 //! Cause `mode_change`: the dominant changed mode retuned.
 
-use super::candidate::{dominant_axis, map_models, retune, retune_prior, Cand};
+use super::candidate::{dominant_axis, map_models, pair_partner, retune, retune_prior, Cand};
 use super::Cause;
 use crate::axis::Channel;
 use crate::modal_update::{chi, Points};
@@ -9,12 +9,9 @@ use crate::twin::Twin;
 use num_complex::Complex64;
 use serde_json::{json, Map};
 
-/// Largest relative frequency distance of two modes retuned together as one pair (the
-/// x and y bending modes of one body, e.g. a tool on its interface, move together).
-const PAIR_MAX_SPACING: f64 = 0.05;
-
 /// The mode whose retune fits `pts` best: (χ after, its index, the retuned model). Each
-/// mode is retuned alone and, where another mode lies within [`PAIR_MAX_SPACING`] of it,
+/// mode is retuned alone and, where another mode lies within
+/// [`PAIR_MAX_SPACING`](super::candidate::PAIR_MAX_SPACING) of it,
 /// together with that neighbour: a joint that carries both bending modes of a body (a
 /// tool interface) changes both, and one mode retuned alone then loses to an added mode
 /// (second generator: tool interface stiffness x0.77, damping x1.8, both 2 kHz modes
@@ -46,14 +43,7 @@ pub(super) fn best_retune(model: &ModalModel, pts: &[Points]) -> Option<(f64, us
             tries.push(entry(vec![k], r.model, k, None));
         }
         // the pair with the next mode up (each pair once)
-        if let Some(j) = (k + 1..n)
-            .filter(|&j| (f(model, j) / f(model, k) - 1.0).abs() <= PAIR_MAX_SPACING)
-            .min_by(|&a, &b| {
-                (f(model, a) - f(model, k))
-                    .abs()
-                    .total_cmp(&(f(model, b) - f(model, k)).abs())
-            })
-        {
+        if let Some(j) = pair_partner(model, k, k + 1..n) {
             let prior = retune_prior();
             if let Ok(r) = crate::modal_update::update_modes(model, &[k, j], pts, prior, 40) {
                 let moved = |i: usize| (f(&r.model, i) / f(model, i)).ln().abs();
