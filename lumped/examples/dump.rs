@@ -259,7 +259,7 @@ quantisation on force and response. Responses are tool - workpiece (relative).
 | `sweep_centre_x.csv` | shaker, logarithmic sweep 20-2500 Hz along x in 8 s then 1.5 s rest, at the centre (0.4, 0.3, 0.15), displacement |
 | `worn_milling/mill_*.csv` | down-milling at the centre, feed along x (axes move), front bearing stiffness x{factor:.3} |
 | `centre_impact/imp_{{x,y}}.csv` | healthy impact test at the centre (5 hits each): a one-pose twin for the diagnose cases |
-| `diagnose/<case>/` + `diagnose/answers.json` | one hidden effect per folder at the centre and the expected diagnosis (docs/formats.md, Diagnosis output) |
+| `diagnose/<case>/` + `diagnose/answers.json` | one hidden effect per folder at the centre and the expected diagnosis (docs/formats.md, Diagnosis output); `healthy` (milling) and `healthy_impact` (hits at 60, 300 and 1200 N on the machine without the nonlinearity case's spring) expect `none` |
 | `truth/gNN.csv`, `truth/u0..u2.csv` | analytic receptance (m/N), 9 channels, 20-3000 Hz, at the measured and 3 unmeasured poses |
 | `truth/gNN_loaded.csv`, `truth/uN_loaded.csv` | the same with the campaign's accelerometer mass at the tool tip (what the impact data can show) |
 | `truth/centre.csv`, `truth/centre_loaded.csv`, `truth/centre_worn.csv` | at the centre: as is, with the accelerometer mass, worn |

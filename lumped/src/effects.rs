@@ -110,6 +110,10 @@ pub struct CaseOptions {
     pub impact: Setup,
     /// Instrumentation of the milling tests.
     pub milling: Setup,
+    /// The nonlinearity case's records made on the machine without its cubic spring
+    /// (the same hammer axis, force levels and noise): the null of the force-level test,
+    /// which a diagnosis must call healthy. The answer still names the spring.
+    pub linear_control: bool,
 }
 
 impl Default for CaseOptions {
@@ -121,6 +125,7 @@ impl Default for CaseOptions {
             milling_s: 3.0,
             impact: Setup::impact(),
             milling: Setup::displacement(),
+            linear_control: false,
         }
     }
 }
@@ -566,7 +571,11 @@ pub fn case_with(base: &Machine, effect: Effect, seed: u64, o: &CaseOptions) -> 
             let alpha = rng.gen_range(0.5..1.5);
             // k3 δ² = α k at the top level's dynamic deflection
             let k3 = alpha * k_lin / dyn_defl.max(1e-12).powi(2);
-            machine.cubic = Some(CubicSpring { joint, dir, k3 });
+            let mut with_spring = machine.clone();
+            with_spring.cubic = Some(CubicSpring { joint, dir, k3 });
+            if !o.linear_control {
+                machine = with_spring.clone();
+            }
             let hammer = Hammer::plastic();
             let gap = o.impact_s / 6.0;
             let hits: Vec<Hit> = (0..6)
@@ -588,7 +597,7 @@ pub fn case_with(base: &Machine, effect: Effect, seed: u64, o: &CaseOptions) -> 
             // data (noise-free), which need not be the one straining the joint most:
             // the table screw's spring moves the 72.9 Hz mode it strains most by
             // 0.2-0.3 % between 60 and 1200 N, and the 563 Hz mode by 1.1 %
-            let shifts = resonance_shifts(&machine, o, hammer_axis, &before, &vis, levels);
+            let shifts = resonance_shifts(&with_spring, o, hammer_axis, &before, &vis, levels);
             let named = shifts
                 .iter()
                 .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
@@ -843,10 +852,15 @@ fn mill_records(
         .collect()
 }
 
+/// Folder of [`write_diagnosis_material`]'s healthy impact row.
+pub const HEALTHY_IMPACT: &str = "healthy_impact";
+
 /// Writes the diagnosis material of `machine` under `out`: a healthy impact test at the
 /// centre (`centre_impact/imp_{x,y}.csv`, 5 hits each: a one-pose twin) and every effect's
 /// records (`diagnose/<effect>/`) with their answers (`diagnose/answers.json`), the
-/// effects' parameters drawn from `seed`. (The `dump` and `cases` examples.)
+/// effects' parameters drawn from `seed`; and healthy impact data at three force levels
+/// (`diagnose/healthy_impact/`, [`CaseOptions::linear_control`]; answer `none`). (The
+/// `dump` and `cases` examples.)
 pub fn write_diagnosis_material(
     out: &std::path::Path,
     machine: &crate::structure::Machine,
@@ -877,6 +891,29 @@ pub fn write_diagnosis_material(
         }
         answers.insert(e.folder().into(), c.answer.clone());
     }
+    // healthy impact data at three force levels: the nonlinearity case's hits on the
+    // machine without its spring (the null of the force-level test)
+    let control = case_with(
+        machine,
+        Effect::Nonlinearity,
+        seed,
+        &CaseOptions {
+            linear_control: true,
+            ..CaseOptions::default()
+        },
+    );
+    for (name, r) in &control.records {
+        r.write_csv(&out.join("diagnose").join(HEALTHY_IMPACT).join(name))?;
+    }
+    answers.insert(
+        HEALTHY_IMPACT.into(),
+        serde_json::json!({
+            "cause": "none",
+            "details": {
+                "made_as": "the nonlinearity case's impact record (hits at 60, 300 and 1200 N) on the machine without its cubic spring"
+            }
+        }),
+    );
     crate::record::write_atomic(
         &out.join("diagnose/answers.json"),
         &serde_json::to_string_pretty(&answers).unwrap_or_default(),

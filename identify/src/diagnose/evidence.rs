@@ -485,36 +485,97 @@ fn known_inputs(twin: &Twin) -> Option<Vec<Axis>> {
 /// and y were hit) is no evidence against the twin, it says nothing there. A response
 /// in another axis to a known force stays evidence (a cross coupling the twin lacks).
 pub fn twin_points(ev: &Evidence, twin: &Twin, band: (f64, f64), min_coh: f64) -> Vec<Points> {
+    let known = known_inputs(twin);
     let mut pts = points(ev, band, min_coh);
-    if let Some(known) = known_inputs(twin) {
+    if let Some(known) = &known {
         pts.retain(|p| known.contains(&p.channel.input));
     }
     // a channel the twin holds empty is evidence only where the response is coherent
     // over a run of lines (a resonance): with a few averages, noise alone passes the
     // coherence threshold on isolated lines (about 1 % of them with 4 averages), and
-    // against a model of zero each such line is a many-sigma misfit
+    // against a model of zero each such line is a many-sigma misfit. Either
+    // [`EMPTY_CHANNEL_MIN_RUN`] lines at `min_coh`, or [`RECIPROCAL_MIN_RUN`] lines where
+    // the channel and its reciprocal (yx and xy) are both coherent beyond chance: a
+    // turned guide raises both alike, noise does not (second generator, a guide turned
+    // 15 degrees at a 70 Hz mode under 1/f sensor noise: yx and xy at 0.65-0.87 on three
+    // lines at 131-138 Hz, none at 0.8 on five)
     let df = ev
         .freqs_hz
         .get(1)
         .zip(ev.freqs_hz.first())
         .map_or(0.0, |(b, a)| b - a);
-    for p in pts
-        .iter_mut()
-        .filter(|p| !twin.channels.contains(&p.channel))
-    {
-        let n = p.freqs_hz.len();
+    let level = reciprocal_level(ev.n_avg).min(min_coh);
+    let relaxed = points(ev, band, level);
+    let coherence = |c: Channel| {
+        (ev.channels.iter())
+            .find(|(ch, _, _)| *ch == c)
+            .map(|(_, _, g)| g)
+    };
+    // lines of runs of at least `min_run` consecutive lines that `pass`
+    let runs = |freqs: &[f64], pass: &dyn Fn(usize) -> bool, min_run: usize| {
+        let n = freqs.len();
         let mut keep = vec![false; n];
-        let mut start = 0;
-        for i in 1..=n {
-            if i == n || p.freqs_hz[i] - p.freqs_hz[i - 1] > 1.5 * df {
-                if i - start >= EMPTY_CHANNEL_MIN_RUN {
-                    keep[start..i].iter_mut().for_each(|k| *k = true);
-                }
-                start = i;
+        let mut i = 0;
+        while i < n {
+            if !pass(i) {
+                i += 1;
+                continue;
             }
+            let mut j = i + 1;
+            while j < n && pass(j) && freqs[j] - freqs[j - 1] <= 1.5 * df {
+                j += 1;
+            }
+            if j - i >= min_run {
+                keep[i..j].iter_mut().for_each(|k| *k = true);
+            }
+            i = j;
         }
-        retain_lines(p, &keep);
+        keep
+    };
+    let line_of = |f: f64| {
+        let k = ev.freqs_hz.partition_point(|x| *x < f);
+        if k > 0 && (k == ev.freqs_hz.len() || f - ev.freqs_hz[k - 1] < ev.freqs_hz[k] - f) {
+            k - 1
+        } else {
+            k
+        }
+    };
+    let order = |c: Channel| ev.channels.iter().position(|(ch, _, _)| *ch == c);
+    let mut out: Vec<Points> = Vec::with_capacity(pts.len());
+    let empty = relaxed.into_iter().filter(|q| {
+        !twin.channels.contains(&q.channel)
+            && known.as_ref().is_none_or(|k| k.contains(&q.channel.input))
+    });
+    for mut q in empty {
+        let own = coherence(q.channel);
+        // the reciprocal channel (the twin may hold it)
+        let back = Channel::new(q.channel.input, q.channel.output);
+        let recip = (back != q.channel).then(|| coherence(back)).flatten();
+        let g_at = |g: Option<&Vec<f64>>, f: f64| g.map_or(0.0, |g| g[line_of(f)]);
+        let f = q.freqs_hz.clone();
+        let paired = runs(
+            &f,
+            &|i| g_at(own, f[i]) >= level && g_at(recip, f[i]) >= level,
+            RECIPROCAL_MIN_RUN,
+        );
+        let strong = runs(&f, &|i| g_at(own, f[i]) >= min_coh, EMPTY_CHANNEL_MIN_RUN);
+        if paired.iter().any(|k| *k) {
+            let keep: Vec<bool> = strong.iter().zip(&paired).map(|(a, b)| *a || *b).collect();
+            retain_lines(&mut q, &keep);
+            out.push(q);
+        } else if let Some(mut p) = pts.iter().find(|p| p.channel == q.channel).cloned() {
+            // no paired run: the strong runs, on the lines (and floors) at `min_coh`
+            let keep = runs(&p.freqs_hz, &|_| true, EMPTY_CHANNEL_MIN_RUN);
+            retain_lines(&mut p, &keep);
+            out.push(p);
+        }
     }
+    out.extend(
+        pts.into_iter()
+            .filter(|p| twin.channels.contains(&p.channel)),
+    );
+    out.sort_by_key(|p| order(p.channel));
+    let mut pts = out;
     pts.retain(|p| !p.h.is_empty());
     pts
 }
@@ -531,6 +592,25 @@ pub(super) fn retain_lines(p: &mut Points, keep: &[bool]) {
 
 /// Consecutive coherent lines a channel the twin holds empty needs to count as evidence.
 const EMPTY_CHANNEL_MIN_RUN: usize = 5;
+
+/// Consecutive lines where a channel the twin holds empty and its reciprocal are both
+/// coherent beyond chance ([`reciprocal_level`]) that count as evidence: noise passes
+/// both on one line with probability 0.0025, on three in a row 1.6e-8.
+const RECIPROCAL_MIN_RUN: usize = 3;
+
+/// The coherence a channel and its reciprocal both need on a line for
+/// [`RECIPROCAL_MIN_RUN`]: the level that noise alone exceeds on 5 % of the lines with
+/// `n` averages (`1 - 0.05^(1/(n-1))`), and at least 0.5 (the response as strong as
+/// the noise: long operating records reach small coherent cross responses that an
+/// impact test's twin could not resolve).
+fn reciprocal_level(n: usize) -> f64 {
+    let null = if n <= 1 {
+        1.0
+    } else {
+        1.0 - 0.05f64.powf(1.0 / (n as f64 - 1.0))
+    };
+    null.max(0.5)
+}
 
 /// Adds the twin's own uncertainty to the standard errors of `pts`: at each line, the
 /// local RMS misfit (±2.5 % of frequency, at least the nearest line) of the twin's

@@ -125,7 +125,10 @@ pub struct DiagnoseOptions {
     /// Smallest held-out fit gain [percentage points] that counts as a real improvement.
     pub min_gain_pct: f64,
     /// Largest local misfit (RMS over ±2.5 % of frequency, in standard errors) that
-    /// still counts as noise (default 4).
+    /// still counts as noise (default 3: healthy impact hits of the second generator at
+    /// three force levels, 20 seeds, reach 0.94-2.23, one 4.11, which the held-out test
+    /// then calls `none`; its damping x2 and stiffness x0.58 mode changes at 137 and
+    /// 73 Hz 3.56-3.62, `none` under the former 4).
     pub chi_local: f64,
 }
 
@@ -136,7 +139,7 @@ impl Default for DiagnoseOptions {
             min_coherence: 0.8,
             chi_none: 3.0,
             min_gain_pct: 0.5,
-            chi_local: 4.0,
+            chi_local: 3.0,
         }
     }
 }
@@ -484,18 +487,40 @@ pub fn diagnose(
         }
     }
     // records at clearly different force levels: judge each level against the twin too
-    // (a mode that moves with the force blurs into a weak misfit when the levels pool)
+    // (a mode that moves with the force blurs into a weak misfit when the levels pool).
+    // Impact hits: each level's standard errors from the sensor noise in the quiet ends
+    // of all the hits ([`evidence::level_evidence`]), not from its coherence: a level of
+    // two hits has a coherence biased to 1, its errors to 0 (the second generator's
+    // linear control of the nonlinearity case, two 60 N hits: local misfit 6-11 sigma
+    // of a twin right within noise, `unexplained` at 4 of 10 seeds)
     let mut level_misfit = Vec::new();
+    let all_impact = parts.iter().all(is_impact);
+    let units = if all_impact {
+        evidence::level_units(&parts)
+    } else {
+        Vec::new()
+    };
     for recs in force_levels(&parts) {
-        let Ok(e) = evidence(&recs) else { continue };
+        let e = if all_impact {
+            evidence::level_evidence(&recs, &units)
+        } else {
+            evidence(&recs)
+        };
+        let Ok(e) = e else { continue };
         let mut p = twin_points(&e, twin, band, opts.min_coherence);
         if let Some(inc) = &incoherent {
             inc.drop_tone_points(&mut p, &tones);
         }
         add_twin_uncertainty(&mut p, twin, pose);
         let delay = twin.extensions.delay_s.unwrap_or(0.0);
-        let m =
-            chi(&model, &p, delay) > opts.chi_none || chi_local(&model, &p, delay) > opts.chi_local;
+        let (c, l) = (chi(&model, &p, delay), chi_local(&model, &p, delay));
+        trace(|| {
+            format!(
+                "diagnose: force level of {} records: chi {c:.2}, local {l:.2}",
+                recs.len()
+            )
+        });
+        let m = c > opts.chi_none || l > opts.chi_local;
         misfit |= m;
         level_misfit.push(m);
     }
