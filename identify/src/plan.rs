@@ -81,10 +81,16 @@ pub(crate) fn smooth_octave(freqs: &[f64], v: &[f64], octaves: f64) -> Vec<f64> 
 
 /// Coherence a channel without response exceeds on 1 % of its lines, with `n` averages.
 pub fn null_coherence_99(n: usize) -> f64 {
+    null_coherence(n, 0.01)
+}
+
+/// Coherence a channel without response exceeds on a share `p` of its lines, with `n`
+/// averages: `1 - p^(1/(n-1))` (1 with a single average).
+pub fn null_coherence(n: usize, p: f64) -> f64 {
     if n <= 1 {
         return 1.0;
     }
-    1.0 - 0.01f64.powf(1.0 / (n as f64 - 1.0))
+    1.0 - p.powf(1.0 / (n as f64 - 1.0))
 }
 
 /// Decides band and channels for one pose (module docs). `forced` lists channels the

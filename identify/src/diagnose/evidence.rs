@@ -600,16 +600,11 @@ const RECIPROCAL_MIN_RUN: usize = 3;
 
 /// The coherence a channel and its reciprocal both need on a line for
 /// [`RECIPROCAL_MIN_RUN`]: the level that noise alone exceeds on 5 % of the lines with
-/// `n` averages (`1 - 0.05^(1/(n-1))`), and at least 0.5 (the response as strong as
-/// the noise: long operating records reach small coherent cross responses that an
-/// impact test's twin could not resolve).
+/// `n` averages ([`crate::plan::null_coherence`]), and at least 0.5 (the response as
+/// strong as the noise: long operating records reach small coherent cross responses that
+/// an impact test's twin could not resolve).
 fn reciprocal_level(n: usize) -> f64 {
-    let null = if n <= 1 {
-        1.0
-    } else {
-        1.0 - 0.05f64.powf(1.0 / (n as f64 - 1.0))
-    };
-    null.max(0.5)
+    crate::plan::null_coherence(n, 0.05).max(0.5)
 }
 
 /// Adds the twin's own uncertainty to the standard errors of `pts`: at each line, the
