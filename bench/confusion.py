@@ -9,6 +9,8 @@
 
     python3 bench/confusion.py [SEEDS] [vmachine|lumped|tryout|all] [--random-machine] [-v]
         [--rows=healthy,cross_coupling,...]   (lumped: only these hidden effects)
+        [--keep=DIR]   (lumped: keep each seed's generated data in DIR/seedN and reuse it
+                        when it is there; the twin is identified again every run)
 
 (default 5 seeds, all). `lumped`: for each seed: `lumped`'s `cases` example writes a healthy impact test at the centre and
 one folder per hidden effect (parameters drawn from the seed) with the SPEC section 4
@@ -72,16 +74,18 @@ def run(args):
     return subprocess.run(args, capture_output=True, text=True)
 
 
-def lumped(seeds, random_machine, verbose, rows=ROWS):
+def lumped(seeds, random_machine, verbose, rows=ROWS, keep=None):
     table = {r: {c: 0 for c in CAUSES} for r in rows}
     right = {r: 0 for r in rows}
     t0 = time.time()
     for seed in range(1, seeds + 1):
-        with tempfile.TemporaryDirectory() as d:
+        with tempfile.TemporaryDirectory() as tmp:
+            d = os.path.join(keep, f"seed{seed}") if keep else tmp
             extra = ["--random-machine"] if random_machine else []
-            o = run([CASES, "--out", d, "--seed", str(seed)] + extra)
-            if o.returncode:
-                sys.exit(o.stderr)
+            if not os.path.exists(os.path.join(d, "diagnose", "answers.json")):
+                o = run([CASES, "--out", d, "--seed", str(seed)] + extra)
+                if o.returncode:
+                    sys.exit(o.stderr)
             imp = [os.path.join(d, "centre_impact", f)
                    for f in sorted(os.listdir(os.path.join(d, "centre_impact")))]
             twin = os.path.join(d, "twin.json")
@@ -164,6 +168,7 @@ def main():
     rows = next((a.split("=", 1)[1].split(",") for a in sys.argv if a.startswith("--rows=")), ROWS)
     if any(r not in ROWS for r in rows):
         sys.exit(f"--rows: one of {', '.join(ROWS)}")
+    keep = next((a.split("=", 1)[1] for a in sys.argv if a.startswith("--keep=")), None)
     b = run(["cargo", "build", "--release", "-q", "--bin", "mtwin"])
     c = run(["cargo", "build", "--release", "-q", "-p", "lumped", "--example", "cases"])
     if b.returncode or c.returncode:
@@ -173,7 +178,7 @@ def main():
         subprocess.run(["cargo", "run", "--release", "-q", "--example", "diagnose_confusion",
                         "--", str(seeds), "both"], cwd=ROOT)
     if which in ("lumped", "all"):
-        lumped(seeds, random_machine, verbose, rows)
+        lumped(seeds, random_machine, verbose, rows, keep)
     if which in ("tryout", "all"):
         tryout()
 

@@ -8,7 +8,7 @@ use crate::twin::Twin;
 use serde_json::{json, Map};
 
 /// Largest relative frequency change of a mode refitted as turned into another axis.
-const TURNED_MAX_SHIFT: f64 = 0.05;
+const TURNED_MAX_SHIFT: f64 = 0.15;
 
 /// The channels the data have and the twin lacks, each fitted with the twin's modes
 /// (numerators only, of the modes near the channel's points); `channel` names the one

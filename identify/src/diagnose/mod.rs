@@ -732,6 +732,27 @@ pub fn diagnose(
                 best = Some((i, scores[i].fit_holdout_pct));
             }
         }
+        // A cross coupling is the one cause that puts a response into channels the twin
+        // holds empty; a retune or a new mode leaves those channels empty, whatever
+        // their band gain. Of those named by the band test, the cross coupling is named
+        // when it passes the same test and leaves less of the local misfit (second
+        // generator, saddle guide turned 20 degrees: band gain 33.4 vs a retune's 33.9,
+        // local misfit 3.6 vs 5.8 sigma).
+        if let Some((b, _)) =
+            best.filter(|b| matches!(cands[b.0].cause, Cause::ModeChange | Cause::UnmodeledMode))
+        {
+            let loc_of = |i: usize| tested.iter().find(|t| t.0 == i).map(|t| t.1);
+            let cross = tested.iter().find(|&&(i, loc, gain)| {
+                cands[i].cause == Cause::CrossCoupling
+                    && (loc < 0.5 * chi_loc || loc < opts.chi_local)
+                    && gain > BAND_GAIN_PCT
+                    && loc_of(b).is_some_and(|l| loc < l)
+                    && scores[i].fit_holdout_pct >= fit_before - opts.min_gain_pct
+            });
+            if let Some(&(i, _, _)) = cross {
+                best = Some((i, scores[i].fit_holdout_pct));
+            }
+        }
     }
     let band_tests: Vec<(f64, f64)> = tested.iter().map(|&(_, loc, gain)| (loc, gain)).collect();
     // A "new" mode at the frequency of a mode the twin has, whose retune shows that mode
