@@ -221,3 +221,128 @@ fn diagnose_hidden(
     }
     assert!(wrong.is_empty(), "{} of {n} wrong: {wrong:#?}", wrong.len());
 }
+
+/// Milling data from the tryout truth (mechanistic down-milling force with runout and a
+/// broadband share, 3 s at two spindle speeds drawn per seed) against the campaign twin:
+/// a healthy machine is `none`; an outside vibration at two frequencies (drawn in
+/// 30-400 Hz, off the tooth harmonics, RMS 10-40 % of each response's) is a
+/// `disturbance` at both, within 1 %; a stiffness loss of 10-25 % in one x or y mode is a
+/// `mode_change` of that mode. Each named cause gains more than a point.
+#[test]
+fn tryout_truth_milling_with_hidden_effects_is_diagnosed() {
+    use crate::common::modal::{milling, write_milling};
+    let dir = tmp();
+    let twin = dir.path().join("twin.json");
+    let campaign = shared_data().join("tryout_gantry/campaign");
+    let o = mtwin(&["identify", "-q", s(&campaign), "--out", s(&twin)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let base = machine();
+    let pure: Vec<usize> = (0..base.len())
+        .filter(|&i| base[i].d[0].abs().max(base[i].d[1].abs()) > 0.99)
+        .collect();
+    let mut wrong = Vec::new();
+    let mut n = 0;
+    for seed in 1..=3u64 {
+        let mut rng = StdRng::seed_from_u64(1000 + seed);
+        let speeds: Vec<f64> = (0..2).map(|_| rng.gen_range(5000.0..9000.0)).collect();
+        let tooth = |f: f64| {
+            speeds.iter().any(|rpm| {
+                let ft = 3.0 * rpm / 60.0;
+                let k = (f / ft).round().max(1.0);
+                (f / (k * ft) - 1.0).abs() < 0.03
+            })
+        };
+        let mut tones = Vec::new();
+        while tones.len() < 2 {
+            let f: f64 = rng.gen_range(30.0..400.0);
+            if !tooth(f) && tones.iter().all(|t: &f64| (f / t - 1.0).abs() > 0.1) {
+                tones.push(f);
+            }
+        }
+        let i = pure[rng.gen_range(0..pure.len())];
+        let sf = rng.gen_range(0.75..0.9);
+        let mut worn = base.clone();
+        worn[i].k *= sf;
+        worn[i].f0 *= f64::sqrt(sf);
+        let cases: Vec<(
+            &str,
+            Vec<crate::common::modal::Mode>,
+            Vec<(f64, f64)>,
+            Value,
+        )> = vec![
+            ("healthy", base.clone(), vec![], json!({"cause": "none"})),
+            (
+                "disturbance",
+                base.clone(),
+                tones
+                    .iter()
+                    .map(|&f| (f, rng.gen_range(0.1..0.4)))
+                    .collect(),
+                json!({"cause": "disturbance", "freq_hz": tones}),
+            ),
+            (
+                "stiffness_loss",
+                worn,
+                vec![],
+                json!({"cause": "mode_change", "freq_hz": base[i].f0, "new_freq_hz": base[i].f0 * sf.sqrt()}),
+            ),
+        ];
+        for (name, modes, dist, want) in cases {
+            let folder: PathBuf = dir.path().join(format!("m{seed}_{name}"));
+            std::fs::create_dir_all(&folder).expect("folder");
+            for rpm in &speeds {
+                let rec = milling(&modes, *rpm, &dist, &mut rng);
+                write_milling(
+                    &folder.join(format!("mill_{rpm:.0}.csv")),
+                    *rpm,
+                    &rec,
+                    [0.6, 0.4, 0.15],
+                );
+            }
+            let out = dir.path().join(format!("om{seed}_{name}"));
+            let o = mtwin(&[
+                "diagnose",
+                "-q",
+                "--twin",
+                s(&twin),
+                s(&folder),
+                "--out",
+                s(&out),
+            ]);
+            assert!(o.status.success(), "{name}: {}", stderr(&o));
+            let d: Value = serde_json::from_str(
+                &std::fs::read_to_string(out.join("diagnosis.json")).expect("diagnosis.json"),
+            )
+            .expect("json");
+            let (cause, det) = (d["cause"].as_str().unwrap_or("?"), &d["details"]);
+            let want_cause = want["cause"].as_str().unwrap_or("?");
+            let numbers = match want_cause {
+                "none" => true,
+                "disturbance" => {
+                    let found = crate::common::f64_list(&det["freq_hz"]);
+                    tones
+                        .iter()
+                        .all(|t| found.iter().any(|f| (f / t - 1.0).abs() <= 0.01))
+                }
+                _ => {
+                    within(det["freq_hz"].as_f64(), want["freq_hz"].as_f64(), 0.01)
+                        && within(
+                            det["new_freq_hz"].as_f64(),
+                            want["new_freq_hz"].as_f64(),
+                            0.01,
+                        )
+                }
+            };
+            let (before, after) = (
+                d["fit_before_pct"].as_f64().unwrap_or(f64::NAN),
+                d["fit_after_pct"].as_f64().unwrap_or(f64::NAN),
+            );
+            eprintln!("seed {seed} milling at {speeds:.0?} rpm, {name}: {cause} {det} | want {want} | held-out {before:.2} -> {after:.2} %");
+            n += 1;
+            if cause != want_cause || !numbers || (want_cause != "none" && after - before <= 1.0) {
+                wrong.push(format!("seed {seed} {name}: found {cause} {det}, want {want}, held-out {before:.2} -> {after:.2}"));
+            }
+        }
+    }
+    assert!(wrong.is_empty(), "{} of {n} wrong: {wrong:#?}", wrong.len());
+}
