@@ -222,6 +222,14 @@ fn diagnose_hidden(
     assert!(wrong.is_empty(), "{} of {n} wrong: {wrong:#?}", wrong.len());
 }
 
+/// A milling case: (folder name, modes, outside vibration (Hz, relative RMS), answer).
+type MillingCase = (
+    &'static str,
+    Vec<crate::common::modal::Mode>,
+    Vec<(f64, f64)>,
+    Value,
+);
+
 /// Milling data from the tryout truth (mechanistic down-milling force with runout and a
 /// broadband share, 3 s at two spindle speeds drawn per seed) against the campaign twin:
 /// a healthy machine is `none`; an outside vibration at two frequencies (drawn in
