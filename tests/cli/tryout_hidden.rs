@@ -272,12 +272,7 @@ fn tryout_truth_milling_with_hidden_effects_is_diagnosed() {
         let mut worn = base.clone();
         worn[i].k *= sf;
         worn[i].f0 *= f64::sqrt(sf);
-        let cases: Vec<(
-            &str,
-            Vec<crate::common::modal::Mode>,
-            Vec<(f64, f64)>,
-            Value,
-        )> = vec![
+        let cases: Vec<MillingCase> = vec![
             ("healthy", base.clone(), vec![], json!({"cause": "none"})),
             (
                 "disturbance",
