@@ -50,63 +50,15 @@ pub fn impact(modes: &[Mode], axis: usize, delay: f64, rng: &mut StdRng) -> [Vec
             force[axis][start + j] += amp * (PI * (j as f64 + 0.5) / width as f64).sin();
         }
     }
-    let npad = 2 * N;
-    let mut planner = RealFftPlanner::<f64>::new();
-    let fwd = planner.plan_fft_forward(npad);
-    let inv = planner.plan_fft_inverse(npad);
-    let mut fin = vec![0.0; npad];
-    fin[..N].copy_from_slice(&force[axis]);
-    let mut fspec = fwd.make_output_vec();
-    fwd.process(&mut fin, &mut fspec).expect("fft");
-    let mut out: [Vec<f64>; 6] = Default::default();
-    for o in 0..3 {
-        let mut y: Vec<Complex64> = fspec
-            .iter()
-            .enumerate()
-            .map(|(k, fv)| {
-                let f = k as f64 * FS / npad as f64;
-                let w = 2.0 * PI * f;
-                fv * receptance(modes, f, o, axis)
-                    * (-w * w)
-                    * Complex64::from_polar(1.0, -w * delay / FS)
-                    / npad as f64
-            })
-            .collect();
-        y[0].im = 0.0;
-        if let Some(last) = y.last_mut() {
-            last.im = 0.0;
-        }
-        let mut a = inv.make_output_vec();
-        inv.process(&mut y, &mut a).expect("ifft");
-        out[3 + o] = a[..N].to_vec();
-    }
-    let (nf, na) = (
-        Normal::new(0.0, 0.08).expect("normal"),
-        Normal::new(0.0, 0.029).expect("normal"),
-    );
-    for (c, f) in force.into_iter().enumerate() {
-        out[c] = f.into_iter().map(|v| v + nf.sample(rng)).collect();
-    }
-    for a in out.iter_mut().skip(3) {
-        a.iter_mut().for_each(|v| *v += na.sample(rng));
-    }
+    let mut out = responses(modes, &force, delay);
+    add_sensor_noise(&mut out, force, rng);
     out
 }
 
 /// Writes an impact record (time-series CSV) at `pose`.
 pub fn write(path: &Path, axis: usize, cols: &[Vec<f64>; 6], pose: [f64; 3]) {
-    let mut txt = format!(
-        "# impact test, hammer along {}\nt,fx,fy,fz,ax,ay,az,x,y,z\n",
-        ["x", "y", "z"][axis]
-    );
-    for i in 0..N {
-        txt.push_str(&format!("{:.7e}", i as f64 / FS));
-        for c in cols {
-            txt.push_str(&format!(",{:.6e}", c[i]));
-        }
-        txt.push_str(&format!(",{},{},{}\n", pose[0], pose[1], pose[2]));
-    }
-    std::fs::write(path, txt).expect("write csv");
+    let what = format!("impact test, hammer along {}", AXES[axis]);
+    write_record(path, &what, cols, pose);
 }
 
 /// Samples per milling record (3 s, as the tryout's).
@@ -155,6 +107,46 @@ pub fn milling(
             *v += 0.5 * rms * broad.sample(rng);
         }
     }
+    let mut out = responses(modes, &force, 0.0);
+    for &(f, rel) in disturbance {
+        for o in 0..2 {
+            let rms = (out[3 + o].iter().map(|v| v * v).sum::<f64>() / n as f64).sqrt();
+            let amp = rel * rms * std::f64::consts::SQRT_2;
+            let ph = rng.gen_range(0.0..2.0 * PI);
+            for (i, v) in out[3 + o].iter_mut().enumerate() {
+                *v += amp * (2.0 * PI * f * i as f64 / FS + ph).sin();
+            }
+        }
+    }
+    add_sensor_noise(&mut out, force, rng);
+    out
+}
+
+/// Writes a milling record (time-series CSV) at `pose`.
+pub fn write_milling(path: &Path, rpm: f64, cols: &[Vec<f64>; 6], pose: [f64; 3]) {
+    let what = format!("down-milling, 3 teeth, {rpm} rpm, feed x");
+    write_record(path, &what, cols, pose);
+}
+
+/// Writes forces and accelerations (time-series CSV, SPEC section 3) at `pose` under the
+/// comment line `what`.
+fn write_record(path: &Path, what: &str, cols: &[Vec<f64>; 6], pose: [f64; 3]) {
+    let mut txt = format!("# {what}\nt,fx,fy,fz,ax,ay,az,x,y,z\n");
+    for i in 0..cols[0].len() {
+        txt.push_str(&format!("{:.7e}", i as f64 / FS));
+        for c in cols {
+            txt.push_str(&format!(",{:.6e}", c[i]));
+        }
+        txt.push_str(&format!(",{},{},{}\n", pose[0], pose[1], pose[2]));
+    }
+    std::fs::write(path, txt).expect("write csv");
+}
+
+/// The accelerations (in slots 3-5; 0-2 empty) of `modes` under the forces along x, y, z,
+/// `delay` samples late: the exact convolution (FFT, zero-padded) with the receptance
+/// times −ω².
+fn responses(modes: &[Mode], force: &[Vec<f64>; 3], delay: f64) -> [Vec<f64>; 6] {
+    let n = force[0].len();
     let npad = 2 * n;
     let mut planner = RealFftPlanner::<f64>::new();
     let fwd = planner.plan_fft_forward(npad);
@@ -179,6 +171,7 @@ pub fn milling(
                     .map(|i| spectra[i][k] * receptance(modes, f, o, i))
                     .sum::<Complex64>()
                     * (-w * w)
+                    * Complex64::from_polar(1.0, -w * delay / FS)
                     / npad as f64
             })
             .collect();
@@ -190,16 +183,12 @@ pub fn milling(
         inv.process(&mut y, &mut a).expect("ifft");
         out[3 + o] = a[..n].to_vec();
     }
-    for &(f, rel) in disturbance {
-        for o in 0..2 {
-            let rms = (out[3 + o].iter().map(|v| v * v).sum::<f64>() / n as f64).sqrt();
-            let amp = rel * rms * std::f64::consts::SQRT_2;
-            let ph = rng.gen_range(0.0..2.0 * PI);
-            for (i, v) in out[3 + o].iter_mut().enumerate() {
-                *v += amp * (2.0 * PI * f * i as f64 / FS + ph).sin();
-            }
-        }
-    }
+    out
+}
+
+/// The forces into slots 0-2 of `out` and the sensor noise of the tryout files on all six
+/// (force 0.08 N, acceleration 0.029 m/s² RMS).
+fn add_sensor_noise(out: &mut [Vec<f64>; 6], force: [Vec<f64>; 3], rng: &mut StdRng) {
     let (nf, na) = (
         Normal::new(0.0, 0.08).expect("normal"),
         Normal::new(0.0, 0.029).expect("normal"),
@@ -210,19 +199,4 @@ pub fn milling(
     for a in out.iter_mut().skip(3) {
         a.iter_mut().for_each(|v| *v += na.sample(rng));
     }
-    out
-}
-
-/// Writes a milling record (time-series CSV) at `pose`.
-pub fn write_milling(path: &Path, rpm: f64, cols: &[Vec<f64>; 6], pose: [f64; 3]) {
-    let mut txt =
-        format!("# down-milling, 3 teeth, {rpm} rpm, feed x\nt,fx,fy,fz,ax,ay,az,x,y,z\n");
-    for i in 0..cols[0].len() {
-        txt.push_str(&format!("{:.7e}", i as f64 / FS));
-        for c in cols {
-            txt.push_str(&format!(",{:.6e}", c[i]));
-        }
-        txt.push_str(&format!(",{},{},{}\n", pose[0], pose[1], pose[2]));
-    }
-    std::fs::write(path, txt).expect("write csv");
 }
