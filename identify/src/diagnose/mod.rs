@@ -665,7 +665,8 @@ pub fn diagnose(
     // acts, without predicting the whole response worse, is named.
     // the band tests below: (candidate, local χ after, band gain) of each candidate
     // scored in a band
-    let mut tested: Vec<(usize, f64, f64)> = Vec::new();
+    // and whether it passes the test
+    let mut tested: Vec<(usize, f64, f64, bool)> = Vec::new();
     if best.is_none() && misfit {
         let mut by_band: Option<(usize, f64)> = None;
         for (i, c) in cands.iter().enumerate() {
@@ -693,18 +694,17 @@ pub fn diagnose(
             };
             let removes_local = loc < 0.5 * before || loc < opts.chi_local;
             let gain = y - x;
-            tested.push((i, loc, gain));
+            let passes = removes_local
+                && gain > BAND_GAIN_PCT
+                && scores[i].fit_holdout_pct >= fit_before - opts.min_gain_pct;
+            tested.push((i, loc, gain, passes));
             trace(|| {
                 format!(
                     "  band test {}: local chi {before:.2} -> {loc:.2}, band gain {gain:.2}",
                     c.cause
                 )
             });
-            if removes_local
-                && gain > BAND_GAIN_PCT
-                && scores[i].fit_holdout_pct >= fit_before - opts.min_gain_pct
-                && by_band.is_none_or(|b| gain > b.1)
-            {
+            if passes && by_band.is_none_or(|b| gain > b.1) {
                 by_band = Some((i, gain));
             }
         }
@@ -720,7 +720,7 @@ pub fn diagnose(
                 (Some(((a0, a1), _, _)), Some(((b0, b1), _, _))) => a0 < b1 && b0 < a1,
                 _ => false,
             };
-            let retune = tested.iter().find(|&&(i, loc, gain)| {
+            let retune = tested.iter().find(|&&(i, loc, gain, _)| {
                 cands[i].cause == Cause::ModeChange
                     && overlaps(i)
                     && loc < chi_loc
@@ -728,7 +728,7 @@ pub fn diagnose(
                     && gain_of(b).is_some_and(|g| gain >= g)
                     && scores[i].fit_holdout_pct >= fit_before - opts.min_gain_pct
             });
-            if let Some(&(i, _, _)) = retune {
+            if let Some(&(i, ..)) = retune {
                 best = Some((i, scores[i].fit_holdout_pct));
             }
         }
@@ -742,19 +742,20 @@ pub fn diagnose(
             best.filter(|b| matches!(cands[b.0].cause, Cause::ModeChange | Cause::UnmodeledMode))
         {
             let loc_of = |i: usize| tested.iter().find(|t| t.0 == i).map(|t| t.1);
-            let cross = tested.iter().find(|&&(i, loc, gain)| {
+            let cross = tested.iter().find(|&&(i, loc, _, passes)| {
                 cands[i].cause == Cause::CrossCoupling
-                    && (loc < 0.5 * chi_loc || loc < opts.chi_local)
-                    && gain > BAND_GAIN_PCT
+                    && passes
                     && loc_of(b).is_some_and(|l| loc < l)
-                    && scores[i].fit_holdout_pct >= fit_before - opts.min_gain_pct
             });
-            if let Some(&(i, _, _)) = cross {
+            if let Some(&(i, ..)) = cross {
                 best = Some((i, scores[i].fit_holdout_pct));
             }
         }
     }
-    let band_tests: Vec<(f64, f64)> = tested.iter().map(|&(_, loc, gain)| (loc, gain)).collect();
+    let band_tests: Vec<(f64, f64)> = tested
+        .iter()
+        .map(|&(_, loc, gain, _)| (loc, gain))
+        .collect();
     // A "new" mode at the frequency of a mode the twin has, whose retune shows that mode
     // turned into another axis, is that mode's cross coupling (an added twin of an
     // existing mode fits the same data with more parameters).
