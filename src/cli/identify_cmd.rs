@@ -249,8 +249,28 @@ fn say_summary(
             .collect();
         let min = all.iter().copied().fold(f64::INFINITY, f64::min);
         let mean = all.iter().sum::<f64>() / all.len().max(1) as f64;
+        // along an axis with only two pose levels, a pose left out is extrapolated from
+        // the other level: its figure is no measure of the interpolation between them
+        let two_levels: Vec<&str> = (0..3)
+            .filter(|&a| {
+                let mut v: Vec<f64> = twin.poses.iter().map(|p| p.pose[a]).collect();
+                v.sort_by(f64::total_cmp);
+                v.dedup_by(|x, y| (*x - *y).abs() < 1e-6);
+                v.len() == 2
+            })
+            .map(|a| ["x", "y", "z"][a])
+            .collect();
+        let caveat = if two_levels.is_empty() {
+            String::new()
+        } else {
+            format!(
+                " (only two pose levels along {}: a pose left out there is extrapolated from \
+                 the other level, not interpolated)",
+                two_levels.join(", ")
+            )
+        };
         out.say(format!(
-            "  interpolation {}: leave-one-pose-out fit mean {mean:.2} %, worst {min:.2} %",
+            "  interpolation {}: leave-one-pose-out fit mean {mean:.2} %, worst {min:.2} %{caveat}",
             twin.interpolation.method
         ));
     }
