@@ -396,7 +396,10 @@ pub fn refine_from(
 }
 
 /// The numerators (and residual terms) of `frf` for the modes of `model` held fixed: the
-/// linear least-squares part of [`refine_from`] alone, same weights.
+/// linear least-squares part of [`refine_from`] alone, same weights. The modes keep the
+/// order of `model` (a campaign's tracked models hold mode `k` as the same physical
+/// mode at every pose, wherever it lies in frequency; sorted by frequency, a pole frozen
+/// for every pose would swap slots with a mode that crosses it).
 pub fn solve_numerators(
     model: &ModalModel,
     frf: &Frf,
@@ -410,7 +413,18 @@ pub fn solve_numerators(
             "the numerator least squares is singular: too few usable lines for the order".into(),
         )
     })?;
-    finish(&prep, &sol)
+    let sorted = finish(&prep, &sol)?;
+    // `finish` sorts by frequency (stably): put each mode back in its slot
+    let mut idx: Vec<usize> = (0..modes.len()).collect();
+    idx.sort_by(|&a, &b| modes[a].wn.total_cmp(&modes[b].wn));
+    let mut out = sorted.clone();
+    for (j, &i) in idx.iter().enumerate() {
+        out.modes[i] = sorted.modes[j];
+        for (c, s) in out.channels.iter_mut().zip(&sorted.channels) {
+            c.num[i] = s.num[j];
+        }
+    }
+    Ok(out)
 }
 
 /// Starting poles (scaled, one per pair): the physical ones first, then lightly damped
