@@ -639,6 +639,26 @@ pub fn diagnose(
             best = Some((i, fit));
         }
     }
+    // A retune that leaves a misfit beyond the noise (χ above `chi_none`) does not explain
+    // the FRF evidence by itself: when the same retune with a mode added where its
+    // misfit remains brings χ within the noise and predicts the held-out responses as
+    // well, the added mode is named (an absorber of 1.1 kg on the second generator's
+    // tool mass-loads its 2029 Hz mode to 1435 Hz and adds its own: the retune alone
+    // χ 4.19, held-out 16.6 %; with the mode χ 2.65, 16.2 %)
+    if let Some((b, fb)) =
+        best.filter(|b| cands[b.0].cause == Cause::ModeChange && cands[b.0].chi > opts.chi_none)
+    {
+        if let Some(i) = (0..cands.len()).find(|&i| {
+            cands[i].cause == Cause::UnmodeledMode
+                && cands[i].details.contains_key("moved_mode_hz")
+                && cands[i].chi <= opts.chi_none
+                && cands[i].chi < cands[b].chi
+                && scores[i].fit_holdout_pct >= fb - opts.min_gain_pct
+                && band_fits[i].is_none_or(|(_, x, y)| y >= x)
+        }) {
+            best = Some((i, scores[i].fit_holdout_pct));
+        }
+    }
     trace(|| {
         cands
             .iter()
