@@ -15,7 +15,9 @@
 (default 5 seeds, all). `lumped`: for each seed: `lumped`'s `cases` example writes a healthy impact test at the centre and
 one folder per hidden effect (parameters drawn from the seed) with the SPEC section 4
 answer, and two healthy rows: milling (`healthy`) and impact hits at three force levels
-on the machine without the nonlinearity case's spring (`healthy_impact`); `mtwin identify` makes a one-pose twin from the healthy impacts with default
+on the machine without the nonlinearity case's spring (`healthy_impact`); mode change, new
+mode, delay and cross coupling are also recorded in milling (rows `*_milling`: the same
+drawn effect, two cuts instead of the impact tests); `mtwin identify` makes a one-pose twin from the healthy impacts with default
 options; `mtwin diagnose` runs on every folder with default options. Rows = the effect
 hidden, columns = the cause found; "numbers right" as in the vmachine table
 (`examples/diagnose_confusion.rs`): frequencies within 1 % (2 % for the nonlinear mode),
@@ -39,7 +41,8 @@ CASES = os.path.join(TARGET, "release", "examples", "cases")
 CAUSES = ["none", "mode_change", "unmodeled_mode", "time_delay", "disturbance",
           "cross_coupling", "pose_dependence", "nonlinearity", "unexplained"]
 ROWS = ["healthy", "healthy_impact", "mode_change", "unmodeled_mode", "time_delay", "disturbance",
-        "cross_coupling", "pose_dependence", "nonlinearity"]
+        "cross_coupling", "pose_dependence", "nonlinearity", "mode_change_milling",
+        "unmodeled_mode_milling", "time_delay_milling", "cross_coupling_milling"]
 
 
 def close(a, b, rel):
@@ -82,7 +85,8 @@ def lumped(seeds, random_machine, verbose, rows=ROWS, keep=None):
         with tempfile.TemporaryDirectory() as tmp:
             d = os.path.join(keep, f"seed{seed}") if keep else tmp
             extra = ["--random-machine"] if random_machine else []
-            if not os.path.exists(os.path.join(d, "diagnose", "answers.json")):
+            kept = os.path.join(d, "diagnose", "answers.json")
+            if not os.path.exists(kept) or any(r not in json.load(open(kept)) for r in rows):
                 o = run([CASES, "--out", d, "--seed", str(seed)] + extra)
                 if o.returncode:
                     sys.exit(o.stderr)
@@ -112,6 +116,14 @@ def lumped(seeds, random_machine, verbose, rows=ROWS, keep=None):
         print(f"| {r} | " + " | ".join(str(table[r][c]) for c in CAUSES)
               + f" | {right[r]}/{seeds} |")
     correct = sum(table[r][answers_cause(r)] for r in rows)
+    for kind, pick in (("impact-effect", lambda r: not r.startswith("healthy")
+                        and not r.endswith("_milling") and r != "disturbance"),
+                       ("milling-effect", lambda r: r.endswith("_milling") or r == "disturbance"),
+                       ("healthy", lambda r: r.startswith("healthy"))):
+        sel = [r for r in rows if pick(r)]
+        if sel:
+            ok = sum(table[r][answers_cause(r)] for r in sel)
+            print(f"\n{kind} rows ({', '.join(sel)}): cause right in {ok}/{seeds * len(sel)}")
     print(f"\ncause right in {correct}/{seeds * len(rows)} cases, numbers right in "
           f"{sum(right.values())}; {time.time() - t0:.0f} s\n")
 
@@ -184,7 +196,7 @@ def main():
 
 
 def answers_cause(row):
-    return "none" if row.startswith("healthy") else row
+    return "none" if row.startswith("healthy") else row.removesuffix("_milling")
 
 
 if __name__ == "__main__":

@@ -22,6 +22,10 @@
 //! | `time_delay` | responses 2–6 samples late | impact x, y | `delay_s` |
 //! | `cross_coupling` | a guideway turned 15–30°, drawn until a cross channel's peak at least doubles (a coupling the healthy machine lacks) | impact x, y | `channel`, `freq_hz` |
 //! | `disturbance` | 1–2 sinusoids entering through the bed, 15–40 % of the response RMS | milling at 2 speeds | `freq_hz` (list) |
+//!
+//! Mode change, new mode, delay and cross coupling are also recorded in milling
+//! ([`CaseOptions::milling_data`]: the same drawn effect, two cuts at 6900-8700 rpm
+//! instead of the impact tests; the delay's `delay_s` at the milling sample rate).
 
 use crate::excitation::{Hammer, Hit, Milling};
 use crate::measure::{
@@ -114,6 +118,20 @@ pub struct CaseOptions {
     /// (the same hammer axis, force levels and noise): the null of the force-level test,
     /// which a diagnosis must call healthy. The answer still names the spring.
     pub linear_control: bool,
+    /// The mode change, new mode, delay and cross coupling recorded in milling (two cuts
+    /// at 6900-8700 rpm, [`CaseOptions::milling`] instrumentation) instead of impact tests:
+    /// the same drawn effect, the other kind of data.
+    pub milling_data: bool,
+}
+
+impl Effect {
+    /// The effects [`CaseOptions::milling_data`] also records in milling.
+    pub const MILLED: [Effect; 4] = [
+        Effect::ModeChange,
+        Effect::UnmodeledMode,
+        Effect::TimeDelay,
+        Effect::CrossCoupling,
+    ];
 }
 
 impl Default for CaseOptions {
@@ -126,6 +144,7 @@ impl Default for CaseOptions {
             impact: Setup::impact(),
             milling: Setup::displacement(),
             linear_control: false,
+            milling_data: false,
         }
     }
 }
@@ -327,7 +346,7 @@ pub fn case_with(base: &Machine, effect: Effect, seed: u64, o: &CaseOptions) -> 
     let records: Vec<(String, Record)> = match effect {
         Effect::Healthy => {
             let mills = millings(o, &mut rng);
-            mill_records(&machine, o, &mills, fresh, None)
+            mill_records(&machine, o, &mills, fresh, None, 0)
         }
         Effect::ModeChange => {
             let joints = [
@@ -776,8 +795,22 @@ pub fn case_with(base: &Machine, effect: Effect, seed: u64, o: &CaseOptions) -> 
             let rel = rng.gen_range(0.15..0.4);
             details.insert("freq_hz".into(), json!(fd));
             details.insert("rms_relative".into(), json!(round(rel, 3)));
-            mill_records(&machine, o, &mills, fresh, Some((fd.clone(), rel, seed)))
+            mill_records(&machine, o, &mills, fresh, Some((fd.clone(), rel, seed)), 0)
         }
+    };
+    // the same drawn effect recorded in milling (the impact records above were the
+    // effect's own observation checks)
+    let records = if o.milling_data && Effect::MILLED.contains(&effect) {
+        let k = (details.get("delay_samples"))
+            .and_then(Value::as_u64)
+            .unwrap_or(0) as usize;
+        if k > 0 {
+            details.insert("delay_s".into(), json!(k as f64 / o.milling.daq.fs));
+        }
+        let mills = millings(o, &mut rng);
+        mill_records(&machine, o, &mills, fresh, None, k)
+    } else {
+        records
     };
     Case {
         effect,
@@ -794,6 +827,7 @@ fn mill_records(
     mills: &[Milling],
     seed: u64,
     disturbance: Option<(Vec<f64>, f64, u64)>,
+    delay_samples: usize,
 ) -> Vec<(String, Record)> {
     mills
         .iter()
@@ -846,6 +880,9 @@ fn mill_records(
                     }
                 ),
             );
+            if delay_samples > 0 {
+                c = c.delayed(delay_samples);
+            }
             let r = c.into_record(&o.milling, seed + k as u64, comments);
             (format!("mill_{}.csv", m.rpm as i64), r)
         })
@@ -855,12 +892,17 @@ fn mill_records(
 /// Folder of [`write_diagnosis_material`]'s healthy impact row.
 pub const HEALTHY_IMPACT: &str = "healthy_impact";
 
+/// Suffix of [`write_diagnosis_material`]'s folders of an effect recorded in milling
+/// ([`Effect::MILLED`], [`CaseOptions::milling_data`]).
+pub const MILLING_SUFFIX: &str = "_milling";
+
 /// Writes the diagnosis material of `machine` under `out`: a healthy impact test at the
 /// centre (`centre_impact/imp_{x,y}.csv`, 5 hits each: a one-pose twin) and every effect's
 /// records (`diagnose/<effect>/`) with their answers (`diagnose/answers.json`), the
 /// effects' parameters drawn from `seed`; and healthy impact data at three force levels
-/// (`diagnose/healthy_impact/`, [`CaseOptions::linear_control`]; answer `none`). (The
-/// `dump` and `cases` examples.)
+/// (`diagnose/healthy_impact/`, [`CaseOptions::linear_control`]; answer `none`); and the
+/// effects of [`Effect::MILLED`] recorded in milling (`diagnose/<effect>_milling/`, the
+/// same drawn effects). (The `dump` and `cases` examples.)
 pub fn write_diagnosis_material(
     out: &std::path::Path,
     machine: &crate::structure::Machine,
@@ -880,16 +922,34 @@ pub fn write_diagnosis_material(
         )
         .write_csv(&out.join(format!("centre_impact/imp_{name}.csv")))?;
     }
-    let cases: Vec<_> = Effect::ALL
+    let milled = CaseOptions {
+        milling_data: true,
+        ..CaseOptions::default()
+    };
+    let cases: Vec<_> = (Effect::ALL.iter().map(|&e| (e, false)))
+        .chain(Effect::MILLED.iter().map(|&e| (e, true)))
+        .collect::<Vec<_>>()
         .par_iter()
-        .map(|&e| (e, case(machine, e, seed)))
+        .map(|&(e, mill)| {
+            let c = if mill {
+                case_with(machine, e, seed, &milled)
+            } else {
+                case(machine, e, seed)
+            };
+            let folder = if mill {
+                format!("{}{MILLING_SUFFIX}", e.folder())
+            } else {
+                e.folder().to_string()
+            };
+            (folder, c)
+        })
         .collect();
     let mut answers = serde_json::Map::new();
-    for (e, c) in cases {
+    for (folder, c) in cases {
         for (name, r) in &c.records {
-            r.write_csv(&out.join("diagnose").join(e.folder()).join(name))?;
+            r.write_csv(&out.join("diagnose").join(&folder).join(name))?;
         }
-        answers.insert(e.folder().into(), c.answer.clone());
+        answers.insert(folder, c.answer.clone());
     }
     // healthy impact data at three force levels: the nonlinearity case's hits on the
     // machine without its spring (the null of the force-level test)

@@ -209,3 +209,39 @@ fn disturbance_lines_show_in_the_milling_response() {
         );
     }
 }
+
+/// The effects recorded in milling are the same drawn effects as in the impact tests
+/// (same answer, same changed machine), recorded as milling cuts; the milled delay
+/// is stated at the milling sample rate (the delay itself is `Clean::delayed`, as in
+/// the impact case: `time_delay_is_the_stated_number_of_samples`).
+#[test]
+fn milled_effects_are_the_impact_effects_in_milling_records() {
+    let base = Machine::nominal();
+    for e in Effect::MILLED {
+        let imp = case_with(&base, e, 4, &short(false));
+        let mill = case_with(
+            &base,
+            e,
+            4,
+            &CaseOptions {
+                milling_data: true,
+                ..short(false)
+            },
+        );
+        assert_eq!(imp.machine, mill.machine, "{e:?}");
+        assert_eq!(imp.answer["cause"], mill.answer["cause"], "{e:?}");
+        assert!(
+            mill.records.iter().all(|(n, _)| n.starts_with("mill_")),
+            "{e:?}: {:?}",
+            mill.records.iter().map(|r| &r.0).collect::<Vec<_>>()
+        );
+        assert!(imp.records.iter().all(|(n, _)| n.starts_with("imp_")));
+        if e == Effect::TimeDelay {
+            let k = detail(&mill, "delay_samples");
+            let fs = mill.records[0].1.fs;
+            assert!((detail(&mill, "delay_s") - k / fs).abs() < 1e-12);
+        } else {
+            assert_eq!(imp.answer, mill.answer, "{e:?}");
+        }
+    }
+}
