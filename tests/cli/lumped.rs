@@ -848,3 +848,17 @@ fn lumped_absorber_that_mass_loads_a_mode_is_a_new_mode() {
         "{d}"
     );
 }
+
+/// Milling, seed 1: a 1.47 kg absorber on the tool. Its best retune "moved" the 2013 Hz
+/// tool mode to 888 Hz (a factor 2.3, more than half its stiffness lost could give) and
+/// was named `mode_change`; a retune may move its mode by at most a factor 1.5, and the
+/// data then name the new mode.
+#[test]
+fn lumped_milling_absorber_is_not_a_retune_by_a_factor_two() {
+    let o = CaseOptions {
+        milling_data: true,
+        ..CaseOptions::default()
+    };
+    let (d, _) = diagnose_case_with(Effect::UnmodeledMode, 1, &o);
+    assert_eq!(d["cause"], "unmodeled_mode", "{d}");
+}

@@ -56,6 +56,11 @@ pub(super) fn best_retune(model: &ModalModel, pts: &[Points]) -> Option<(f64, us
     // a 0.5 kg absorber on the tool: the 2025 Hz tool mode "moved to 3470 Hz with 437 %
     // damping", held-out fit 22 %, beat the added mode that was the cause)
     tries.retain(|t| t.1.iter().all(|&i| t.3.modes[i].zeta <= RETUNE_MAX_DAMPING));
+    // and one that carries its mode off by more than a factor RETUNE_MAX_SHIFT has
+    // replaced the mode by another, which is not a change of it
+    tries.retain(|t| {
+        (t.1.iter()).all(|&i| (f(&t.3, i) / f(model, i)).ln().abs() <= RETUNE_MAX_SHIFT.ln())
+    });
     // A joint's change moves every mode that strains it: the two retunes that each
     // explain a clear part of the misfit on their own, in bands apart, retuned together
     // (second generator: the saddle guide's damping x2.1 widened the 137 Hz y mode and
@@ -88,6 +93,12 @@ pub(super) fn best_retune(model: &ModalModel, pts: &[Points]) -> Option<(f64, us
 /// Largest damping ratio of a retuned mode: beyond it the retune has removed the mode
 /// (no machine-tool resonance is that damped), which is not a mode change.
 const RETUNE_MAX_DAMPING: f64 = 0.3;
+
+/// Largest factor by which a retune may move its mode's frequency: a joint at half its
+/// stiffness moves the mode it dominates by 1/√2 (a factor 1.41); a larger move (the
+/// second generator's milling with a 1.5 kg absorber on the tool: its 2013 Hz mode
+/// "retuned" to 888 Hz) is another mode in its place.
+const RETUNE_MAX_SHIFT: f64 = 1.5;
 
 /// Share of the twin's χ a retune must remove on its own to enter [`joint_retune`], and
 /// that the joint retune must remove beyond the better of its two parts.
