@@ -78,6 +78,14 @@ impl Effect {
         Effect::Disturbance,
     ];
 
+    /// The effects [`CaseOptions::milling_data`] also records in milling.
+    pub const MILLED: [Effect; 4] = [
+        Effect::ModeChange,
+        Effect::UnmodeledMode,
+        Effect::TimeDelay,
+        Effect::CrossCoupling,
+    ];
+
     /// The SPEC cause code.
     pub fn cause(self) -> &'static str {
         match self {
@@ -122,16 +130,6 @@ pub struct CaseOptions {
     /// at 6900-8700 rpm, [`CaseOptions::milling`] instrumentation) instead of impact tests:
     /// the same drawn effect, the other kind of data.
     pub milling_data: bool,
-}
-
-impl Effect {
-    /// The effects [`CaseOptions::milling_data`] also records in milling.
-    pub const MILLED: [Effect; 4] = [
-        Effect::ModeChange,
-        Effect::UnmodeledMode,
-        Effect::TimeDelay,
-        Effect::CrossCoupling,
-    ];
 }
 
 impl Default for CaseOptions {
