@@ -2330,6 +2330,12 @@ fn fit_pose(
                 .push(format!("{PER_INPUT_NAME}: failed ({e})")),
         }
     }
+    if let Some(why) = guards
+        .as_ref()
+        .and_then(|g| g.damp_unresolved_outside(&mut best.model))
+    {
+        plan.alternatives.push(format!("{best_name}: {why}"));
+    }
     if !plan.alternatives.is_empty() {
         plan.alternatives.insert(
             0,
