@@ -203,13 +203,41 @@ type MillingCase = (
 );
 
 /// Milling data from the tryout truth (mechanistic down-milling force with runout and a
-/// broadband share, 3 s at two spindle speeds drawn per seed) against the campaign twin:
-/// a healthy machine is `none`; an outside vibration at two frequencies (drawn in
-/// 30-400 Hz, off the tooth harmonics, RMS 10-40 % of each response's) is a
-/// `disturbance` at both, within 1 %; a stiffness loss of 10-25 % in one x or y mode is a
-/// `mode_change` of that mode. Each named cause gains more than a point.
+/// broadband share of half the force's RMS, 3 s at two spindle speeds drawn per seed)
+/// against the campaign twin: a healthy machine is `none`; an outside vibration at two
+/// frequencies (drawn in 30-400 Hz, off the tooth harmonics, RMS 10-40 % of each
+/// response's) is a `disturbance` at both, within 1 %; a stiffness loss of 10-25 % in one
+/// x or y mode is a `mode_change` of that mode. Each named cause gains more than a point.
 #[test]
 fn tryout_truth_milling_with_hidden_effects_is_diagnosed() {
+    let (wrong, n) = milling_cases(0.5);
+    assert!(wrong.is_empty(), "{} of {n} wrong: {wrong:#?}", wrong.len());
+}
+
+/// The same cases with a purely periodic cutting force (tooth and spindle harmonics only,
+/// as the independent tryout generator's milling records have): the Welch FRF evidence
+/// between the harmonics holds little but leakage, so a stiffness loss is found by
+/// retuning the modes to the records' responses in time (`mode_change`, 129 -> 120.5 Hz
+/// and 1210 -> 1108 Hz; both were `unexplained` or `none` before). At most one case of
+/// the nine is missed, and never by a false alarm: seed 2's 88 Hz mode gets almost no
+/// force from cuts at 7177 and 7972 rpm (its loss changes the held-out response by
+/// 0.2 points; `none`).
+#[test]
+fn tryout_truth_periodic_milling_with_hidden_effects_is_diagnosed() {
+    let (wrong, n) = milling_cases(0.0);
+    assert!(wrong.len() <= 1, "{} of {n} wrong: {wrong:#?}", wrong.len());
+    assert!(
+        wrong
+            .iter()
+            .all(|w| !w.contains("want {\"cause\":\"none\"}")),
+        "a false alarm: {wrong:#?}"
+    );
+}
+
+/// The milling cases of three seeds with a cutting force whose broadband share is
+/// `broadband` times its RMS, each diagnosed against the campaign twin: what is wrong,
+/// and how many cases.
+fn milling_cases(broadband: f64) -> (Vec<String>, usize) {
     use crate::common::modal::{milling, write_milling};
     let dir = tmp();
     let twin = dir.path().join("twin.json");
@@ -266,7 +294,7 @@ fn tryout_truth_milling_with_hidden_effects_is_diagnosed() {
             let folder: PathBuf = dir.path().join(format!("m{seed}_{name}"));
             std::fs::create_dir_all(&folder).expect("folder");
             for rpm in &speeds {
-                let rec = milling(&modes, *rpm, &dist, &mut rng);
+                let rec = milling(&modes, *rpm, &dist, broadband, &mut rng);
                 write_milling(
                     &folder.join(format!("mill_{rpm:.0}.csv")),
                     *rpm,
@@ -280,7 +308,7 @@ fn tryout_truth_milling_with_hidden_effects_is_diagnosed() {
             wrong.extend(judge(&twin, &folder, &out, &want, &tag));
         }
     }
-    assert!(wrong.is_empty(), "{} of {n} wrong: {wrong:#?}", wrong.len());
+    (wrong, n)
 }
 
 /// Runs `mtwin diagnose` (defaults only) on `folder` against `twin`, prints the verdict,

@@ -131,6 +131,10 @@ pub(super) struct Cand {
     /// pose's own evidence (at the data's mean pose its per-pose changes average out).
     /// `None`: judged on the pooled evidence at the data's pose.
     pub(super) local_chi: Option<(f64, f64)>,
+    /// Fitted to the records' responses in time, not to the FRF evidence (periodic
+    /// milling forces leave that evidence little but leakage): judged by the held-out
+    /// responses alone, where it acts and as a whole.
+    pub(super) fitted_in_time: bool,
 }
 
 /// Mode `k` of `model` alone refitted to `pts` (frequency may move up to ~30 %).

@@ -155,5 +155,6 @@ pub(super) fn cand_cross_coupling(twin: &Twin, model: &ModalModel, pts: &[Points
         details: d,
         per_record: Vec::new(),
         local_chi: None,
+        fitted_in_time: false,
     })
 }

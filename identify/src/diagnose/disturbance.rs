@@ -249,6 +249,7 @@ pub(super) fn cand_disturbance(
         details: d,
         per_record,
         local_chi: None,
+        fitted_in_time: false,
     })
 }
 

@@ -707,6 +707,23 @@ pub(super) fn holdout_fit_each<'a>(
     Ok(HeldOut::simulate(twin_of, splits)?.fit())
 }
 
+/// The response axes of `ts` whose simulation by `twin` counts: every one, also one the
+/// twin does not model (then its prediction is 0: a missing cross channel shows) --
+/// unless a force the twin knows nothing of acts too (the z force in milling, when only
+/// x and y were hit): then such an axis' response is not the twin's to predict.
+pub(super) fn judged_axes(twin: &Twin, ts: &TimeSeries) -> Vec<Axis> {
+    let unknown_force = known_inputs(twin).is_some_and(|known| {
+        Axis::ALL.iter().any(|a| {
+            !known.contains(a) && ts.force(*a).is_some_and(|f| f.iter().any(|v| *v != 0.0))
+        })
+    });
+    Axis::ALL
+        .into_iter()
+        .filter(|a| ts.response(*a).is_some())
+        .filter(|a| !unknown_force || twin.channels.iter().any(|c| c.output == *a))
+        .collect()
+}
+
 /// The held-out parts of the records and a twin's simulation of them: each measured
 /// response axis the fit counts, as (measured, simulated, sample interval).
 pub(super) struct HeldOut {
@@ -715,10 +732,7 @@ pub(super) struct HeldOut {
 
 impl HeldOut {
     /// Simulates `twin_of(i)` on split `i` (the whole record, from rest) and keeps the
-    /// held-out part of every response axis that counts: also one the twin does not
-    /// model (then its prediction is 0: a missing cross channel shows) -- unless a force
-    /// the twin knows nothing of acts too (the z force in milling, when only x and y were
-    /// hit): then such an axis' response is not the twin's to predict.
+    /// held-out part of every response axis that counts ([`judged_axes`]).
     pub(super) fn simulate<'a>(
         twin_of: impl Fn(usize) -> &'a Twin,
         splits: &[Split],
@@ -728,16 +742,8 @@ impl HeldOut {
             let twin = twin_of(i);
             let ts = &s.full;
             let y = simulate_as_measured(twin, ts)?;
-            let unknown_force = known_inputs(twin).is_some_and(|known| {
-                Axis::ALL.iter().any(|a| {
-                    !known.contains(a) && ts.force(*a).is_some_and(|f| f.iter().any(|v| *v != 0.0))
-                })
-            });
-            for a in Axis::ALL {
+            for a in judged_axes(twin, ts) {
                 let Some(m) = ts.response(a) else { continue };
-                if unknown_force && !twin.channels.iter().any(|c| c.output == a) {
-                    continue;
-                }
                 segments.push((
                     m[s.holdout_start..].to_vec(),
                     y[a.index()][s.holdout_start..].to_vec(),

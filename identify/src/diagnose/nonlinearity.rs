@@ -447,6 +447,7 @@ fn build_candidate(
         details: d,
         per_record: Vec::new(),
         local_chi: None,
+        fitted_in_time: false,
     })
 }
 

@@ -274,6 +274,7 @@ fn cand_variants(
             details: d,
             per_record: Vec::new(),
             local_chi: Some((local_before, local_after)),
+            fitted_in_time: false,
         })
     };
     let mut out: Vec<Cand> = [

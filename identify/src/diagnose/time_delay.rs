@@ -45,5 +45,6 @@ pub(super) fn cand_time_delay(
         details: d,
         per_record: Vec::new(),
         local_chi: None,
+        fitted_in_time: false,
     })
 }

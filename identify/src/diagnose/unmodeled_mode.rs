@@ -78,6 +78,7 @@ fn new_mode_cand(
         details: d,
         per_record: Vec::new(),
         local_chi: None,
+        fitted_in_time: false,
     }
 }
 

@@ -67,7 +67,7 @@ pub const N_MILL: usize = 3 * 10240;
 /// One down-milling record at `rpm` (3 teeth, feed along x, radial immersion a third):
 /// the mechanistic force of each engaged tooth (tangential `Kt a h`, radial 0.3 of it,
 /// axial 0.2; chip `h = f_z sin φ`, 8 % tooth-to-tooth runout) plus a broadband share of
-/// half its RMS, forces along x, y, z; the responses the exact convolution with the
+/// `broadband` times its RMS (0: tooth and spindle harmonics only), forces along x, y, z; the responses the exact convolution with the
 /// receptance times −ω², the same sensor noise as [`impact`], and an outside vibration
 /// `disturbance` (frequency [Hz], RMS relative to each response's RMS, in x and y, random
 /// phases) added to the accelerations only.
@@ -75,6 +75,7 @@ pub fn milling(
     modes: &[Mode],
     rpm: f64,
     disturbance: &[(f64, f64)],
+    broadband: f64,
     rng: &mut StdRng,
 ) -> [Vec<f64>; 6] {
     let n = N_MILL;
@@ -104,7 +105,7 @@ pub fn milling(
     for f in force.iter_mut() {
         let rms = (f.iter().map(|v| v * v).sum::<f64>() / n as f64).sqrt();
         for v in f.iter_mut() {
-            *v += 0.5 * rms * broad.sample(rng);
+            *v += broadband * rms * broad.sample(rng);
         }
     }
     let mut out = responses(modes, &force, 0.0);
