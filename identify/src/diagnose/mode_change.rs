@@ -180,7 +180,7 @@ pub(super) fn cand_mode_change(
     retuned: Option<&(f64, usize, ModalModel)>,
 ) -> Option<Cand> {
     let (c, k, new) = retuned?.clone();
-    let (old_m, new_m) = (model.modes[k], new.modes[k]);
+    let new_m = new.modes[k];
     let ext = map_models(twin, |m| {
         let mut m = m.clone();
         crate::modal_update::apply_change(&mut m, model, &new, 1.0);
@@ -205,6 +205,21 @@ pub(super) fn cand_mode_change(
             fitted_in_time: false,
         });
     }
+    Some(retuned_mode(model, &new, k, ext, c, false))
+}
+
+/// The mode-change candidate of mode `k` of `model` retuned in `new` (the twin `ext`
+/// carries the change, `c` its χ on the evidence): its old and new frequency and damping,
+/// axis and index.
+fn retuned_mode(
+    model: &ModalModel,
+    new: &ModalModel,
+    k: usize,
+    ext: Twin,
+    c: f64,
+    fitted_in_time: bool,
+) -> Cand {
+    let (old_m, new_m) = (model.modes[k], new.modes[k]);
     let mut d = Map::new();
     d.insert("freq_hz".into(), json!(old_m.freq_hz()));
     d.insert("new_freq_hz".into(), json!(new_m.freq_hz()));
@@ -212,15 +227,15 @@ pub(super) fn cand_mode_change(
     d.insert("new_damping".into(), json!(new_m.zeta));
     d.insert("axis".into(), json!(dominant_axis(model, k).to_string()));
     d.insert("mode".into(), json!(k));
-    Some(Cand {
+    Cand {
         cause: Cause::ModeChange,
         twin: ext,
         chi: c,
         details: d,
         per_record: Vec::new(),
         local_chi: None,
-        fitted_in_time: false,
-    })
+        fitted_in_time,
+    }
 }
 
 /// Largest frequency change \[relative\] of a retuned mode that still counts as "kept
@@ -500,23 +515,7 @@ pub(super) fn cand_mode_change_time(
     let (_, k, f, z) = best?;
     let (new, ext) = with(k, f, z);
     let c = chi(&new, pts, twin.extensions.delay_s.unwrap_or(0.0));
-    let (old_m, new_m) = (model.modes[k], new.modes[k]);
-    let mut d = Map::new();
-    d.insert("freq_hz".into(), json!(old_m.freq_hz()));
-    d.insert("new_freq_hz".into(), json!(new_m.freq_hz()));
-    d.insert("damping".into(), json!(old_m.zeta));
-    d.insert("new_damping".into(), json!(new_m.zeta));
-    d.insert("axis".into(), json!(dominant_axis(model, k).to_string()));
-    d.insert("mode".into(), json!(k));
-    Some(Cand {
-        cause: Cause::ModeChange,
-        twin: ext,
-        chi: c,
-        details: d,
-        per_record: Vec::new(),
-        local_chi: None,
-        fitted_in_time: true,
-    })
+    Some(retuned_mode(model, &new, k, ext, c, true))
 }
 
 /// The largest drop \[points\] over `twin`'s poses of the direct channels' mean fit of the
