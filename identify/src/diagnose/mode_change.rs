@@ -389,6 +389,7 @@ pub(super) fn cand_mode_change_time(
         (new, t)
     };
     let r0 = residual(twin)?;
+    let (fits0, force) = (twin_data_fits(twin), force_power(&still));
     // the modes the records excite: removing one changes the simulated response by at
     // least TIME_RETUNE_MIN_SHARE of the measured one
     let mut best: Option<(f64, usize, f64, f64)> = None;
@@ -459,9 +460,12 @@ pub(super) fn cand_mode_change_time(
                 }
             }
         }
-        let drop = twin_data_fit_drop(twin, &with(k, top.1, top.2).1);
+        let drop = (fits0.iter())
+            .zip(twin_data_fits(&with(k, top.1, top.2).1))
+            .map(|(a, b)| a - b)
+            .fold(0.0, f64::max);
         let forced = force_share_near(
-            &still,
+            &force,
             model.modes[k].freq_hz() * top.1.min(1.0),
             model.modes[k].freq_hz() * top.1.max(1.0),
             model.modes[k].zeta.max(model.modes[k].zeta * top.2),
@@ -518,35 +522,30 @@ pub(super) fn cand_mode_change_time(
     Some(retuned_mode(model, &new, k, ext, c, true))
 }
 
-/// The largest drop \[points\] over `twin`'s poses of the direct channels' mean fit of the
-/// FRF each pose was identified from (in its band), from `twin` to `changed`.
-fn twin_data_fit_drop(twin: &Twin, changed: &Twin) -> f64 {
-    let fit = |p: &crate::twin::PoseModel| {
-        let mut w = p.model.clone();
-        if let Some(s) = p.frf_exp_window_sigma {
-            w.shift_poles(-s);
-        }
-        let fits = crate::campaign::channel_fits(&w, &p.frf, (p.band_hz[0], p.band_hz[1]));
-        let d: Vec<f64> = fits
-            .iter()
-            .filter(|c| c.channel.output == c.channel.input && c.fit_pct.is_finite())
-            .map(|c| c.fit_pct)
-            .collect();
-        d.iter().sum::<f64>() / d.len().max(1) as f64
-    };
-    twin.poses
-        .iter()
-        .zip(&changed.poses)
-        .map(|(a, b)| fit(a) - fit(b))
-        .fold(0.0, f64::max)
+/// The direct channels' mean fit \[%\] of the FRF each pose of `twin` was identified from
+/// (in its band), per pose.
+fn twin_data_fits(twin: &Twin) -> Vec<f64> {
+    (twin.poses.iter())
+        .map(|p| {
+            let mut w = p.model.clone();
+            if let Some(s) = p.frf_exp_window_sigma {
+                w.shift_poles(-s);
+            }
+            let fits = crate::campaign::channel_fits(&w, &p.frf, (p.band_hz[0], p.band_hz[1]));
+            let d: Vec<f64> = fits
+                .iter()
+                .filter(|c| c.channel.output == c.channel.input && c.fit_pct.is_finite())
+                .map(|c| c.fit_pct)
+                .collect();
+            d.iter().sum::<f64>() / d.len().max(1) as f64
+        })
+        .collect()
 }
 
-/// The share of the records' force power (all force columns) within the mode's
-/// half-power band around `lo..hi` Hz, widened to at least 3 % either side.
-fn force_share_near(parts: &[crate::timeseries::TimeSeries], lo: f64, hi: f64, zeta: f64) -> f64 {
-    let w = zeta.max(0.03);
-    let (a, b) = (lo * (1.0 - w), hi * (1.0 + w));
-    let (mut inside, mut all) = (0.0, 0.0);
+/// The records' force power per line (all force columns, each record's own lines):
+/// `(frequency [Hz], power)`, the mean removed.
+fn force_power(parts: &[crate::timeseries::TimeSeries]) -> Vec<(f64, f64)> {
+    let mut out = Vec::new();
     for p in parts {
         let n = p.len();
         if n < 16 {
@@ -556,23 +555,31 @@ fn force_share_near(parts: &[crate::timeseries::TimeSeries], lo: f64, hi: f64, z
         let df = 1.0 / (n as f64 * p.dt);
         for ax in crate::axis::Axis::ALL {
             let Some(f) = p.force(ax) else { continue };
-            let mut x = f.to_vec();
-            let mean = x.iter().sum::<f64>() / n as f64;
-            x.iter_mut().for_each(|v| *v -= mean);
-            let mut out = fft.make_output_vec();
-            if fft.process(&mut x, &mut out).is_err() {
-                continue;
-            }
-            for (l, c) in out.iter().enumerate() {
-                let f = l as f64 * df;
-                let pw = c.norm_sqr();
-                all += pw;
-                if f >= a && f <= b {
-                    inside += pw;
-                }
+            let mean = f.iter().sum::<f64>() / n as f64;
+            let mut x: Vec<f64> = f.iter().map(|v| v - mean).collect();
+            let mut spec = fft.make_output_vec();
+            if fft.process(&mut x, &mut spec).is_ok() {
+                out.extend(
+                    spec.iter()
+                        .enumerate()
+                        .map(|(l, c)| (l as f64 * df, c.norm_sqr())),
+                );
             }
         }
     }
+    out
+}
+
+/// The share of the force power `power` ([`force_power`]) within the mode's half-power
+/// band around `lo..hi` Hz, widened to at least 3 % either side.
+fn force_share_near(power: &[(f64, f64)], lo: f64, hi: f64, zeta: f64) -> f64 {
+    let w = zeta.max(0.03);
+    let (a, b) = (lo * (1.0 - w), hi * (1.0 + w));
+    let all: f64 = power.iter().map(|p| p.1).sum();
+    let inside: f64 = (power.iter())
+        .filter(|(f, _)| *f >= a && *f <= b)
+        .map(|p| p.1)
+        .sum();
     if all > 0.0 {
         inside / all
     } else {
