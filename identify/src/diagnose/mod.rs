@@ -34,6 +34,7 @@ mod candidate;
 mod cross_coupling;
 mod disturbance;
 mod evidence;
+mod in_time;
 mod mode_change;
 mod nonlinearity;
 mod pose_dependence;

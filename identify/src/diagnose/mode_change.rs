@@ -1,6 +1,7 @@
 //! Cause `mode_change`: the dominant changed mode retuned.
 
 use super::candidate::{dominant_axis, map_models, pair_partner, retune, retune_prior, Cand};
+use super::in_time::{force_power, force_share_near, InTime};
 use super::Cause;
 use crate::axis::Channel;
 use crate::modal_update::{chi, Points};
@@ -322,146 +323,16 @@ pub(super) fn cand_mode_change_time(
     parts: &[crate::timeseries::TimeSeries],
     pts: &[Points],
 ) -> Option<Cand> {
-    use crate::extended::{resimulate_as_measured_lti, simulate_as_measured_lti};
-    let axes = parts
-        .first()
-        .map(|p| super::evidence::judged_axes(twin, p))
-        .unwrap_or_default();
-    let axes = &axes[..];
-    // each part standing at its mean pose (the search only; the held-out test simulates
-    // the records as they are)
-    let still: Vec<crate::timeseries::TimeSeries> = parts
-        .iter()
-        .map(|p| {
-            let mut s = p.clone();
-            let m = p.mean_position();
-            for (a, v) in s.position.iter_mut().enumerate() {
-                if let Some(v) = v.as_mut() {
-                    v.iter_mut().for_each(|x| *x = m[a]);
-                }
-            }
-            s
-        })
-        .collect();
-    let base: Vec<[Vec<f64>; 3]> = still
-        .iter()
-        .map(|s| simulate_as_measured_lti(twin, s))
-        .collect::<crate::error::Result<_>>()
-        .ok()?;
-    let sq = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>();
-    let measured: Vec<Vec<&[f64]>> = still
-        .iter()
-        .map(|s| axes.iter().filter_map(|a| s.response(*a)).collect())
-        .collect();
-    let power: f64 = measured.iter().flatten().map(|m| sq(m)).sum();
-    if !(power > 0.0) {
-        return None;
-    }
-    // residual power of the twin `t`'s simulation (from the base one) over the parts
-    let residual = |t: &Twin| -> Option<f64> {
-        let mut r = 0.0;
-        for ((s, b), m) in still.iter().zip(&base).zip(&measured) {
-            let y = resimulate_as_measured_lti(twin, t, s, b).ok()?;
-            let mut i = 0;
-            for a in axes {
-                if s.response(*a).is_none() {
-                    continue;
-                }
-                r += m[i]
-                    .iter()
-                    .zip(&y[a.index()])
-                    .map(|(u, v)| (u - v) * (u - v))
-                    .sum::<f64>();
-                i += 1;
-            }
-        }
-        Some(r)
-    };
-    let with = |k: usize, f: f64, z: f64| {
-        let mut new = model.clone();
-        new.modes[k].wn *= f;
-        new.modes[k].zeta *= z;
-        let t = map_models(twin, |m| {
-            let mut m = m.clone();
-            crate::modal_update::apply_change(&mut m, model, &new, 1.0);
-            m
-        });
-        (new, t)
-    };
-    let r0 = residual(twin)?;
-    let (fits0, force) = (twin_data_fits(twin), force_power(&still));
-    // the modes the records excite: removing one changes the simulated response by at
-    // least TIME_RETUNE_MIN_SHARE of the measured one
+    let fit = InTime::new(twin, parts)?;
+    let r0 = fit.residual(twin)?;
+    let (fits0, force) = (twin_data_fits(twin), force_power(fit.parts()));
     let mut best: Option<(f64, usize, f64, f64)> = None;
-    for k in 0..model.modes.len() {
-        let (_, gone) = with(k, 1.0, 1.0);
-        let mut gone = gone;
-        for p in &mut gone.poses {
-            for c in &mut p.model.channels {
-                if let Some(n) = c.num.get_mut(k) {
-                    *n = crate::model::ModeNum { b0: 0.0, b1: 0.0 };
-                }
-            }
-        }
-        let share = {
-            let mut d = 0.0;
-            for (s, b) in still.iter().zip(&base) {
-                let Ok(y) = resimulate_as_measured_lti(twin, &gone, s, b) else {
-                    continue;
-                };
-                for a in axes {
-                    d += b[a.index()]
-                        .iter()
-                        .zip(&y[a.index()])
-                        .map(|(u, v)| (u - v) * (u - v))
-                        .sum::<f64>();
-                }
-            }
-            (d / power).sqrt()
-        };
-        if !(share >= TIME_RETUNE_MIN_SHARE) {
-            continue;
-        }
-        let ln_span = TIME_RETUNE_SPAN.ln();
-        let grid: Vec<f64> = (0..TIME_RETUNE_STEPS)
-            .map(|i| (-ln_span + 2.0 * ln_span * i as f64 / (TIME_RETUNE_STEPS - 1) as f64).exp())
-            .collect();
-        let mut top = (r0, 1.0, 1.0);
-        for &f in &grid {
-            if let Some(r) = residual(&with(k, f, 1.0).1) {
-                if r < top.0 {
-                    top = (r, f, 1.0);
-                }
-            }
-        }
-        // finer around the best step
-        let step = (2.0 * ln_span / (TIME_RETUNE_STEPS - 1) as f64).exp();
-        let f1 = top.1;
-        for i in 1..=4 {
-            for f in [
-                f1 * step.powf(i as f64 / 5.0),
-                f1 / step.powf(i as f64 / 5.0),
-            ] {
-                if let Some(r) = residual(&with(k, f, 1.0).1) {
-                    if r < top.0 {
-                        top = (r, f, 1.0);
-                    }
-                }
-            }
-        }
-        let f2 = top.1;
-        for &z in &TIME_RETUNE_DAMPING {
-            if z == 1.0 {
-                continue;
-            }
-            if let Some(r) = residual(&with(k, f2, z).1) {
-                if r < top.0 {
-                    top = (r, f2, z);
-                }
-            }
-        }
+    for k in excited_modes(twin, model, &fit) {
+        let (top, ln_span) = time_search(r0, |f, z| {
+            fit.residual(&with_retune(twin, model, k, f, z).1)
+        });
         let drop = (fits0.iter())
-            .zip(twin_data_fits(&with(k, top.1, top.2).1))
+            .zip(twin_data_fits(&with_retune(twin, model, k, top.1, top.2).1))
             .map(|(a, b)| a - b)
             .fold(0.0, f64::max);
         let forced = force_share_near(
@@ -473,10 +344,10 @@ pub(super) fn cand_mode_change_time(
 
         super::trace(|| {
             format!(
-                "  time retune [{k}] ({:.1} Hz, share {share:.3}): residual {:.4} -> {:.4}, x{:.4} Hz, x{:.2} damping, twin data fit drop {drop:.2}, force share there {forced:.1e}",
+                "  time retune [{k}] ({:.1} Hz): residual {:.4} -> {:.4}, x{:.4} Hz, x{:.2} damping, twin data fit drop {drop:.2}, force share there {forced:.1e}",
                 model.modes[k].freq_hz(),
-                r0 / power,
-                top.0 / power,
+                r0 / fit.power,
+                top.0 / fit.power,
                 top.1,
                 top.2
             )
@@ -517,9 +388,104 @@ pub(super) fn cand_mode_change_time(
         }
     }
     let (_, k, f, z) = best?;
-    let (new, ext) = with(k, f, z);
+    let (new, ext) = with_retune(twin, model, k, f, z);
     let c = chi(&new, pts, twin.extensions.delay_s.unwrap_or(0.0));
     Some(retuned_mode(model, &new, k, ext, c, true))
+}
+
+/// `model` with mode `k`'s frequency scaled by `f` and its damping by `z`, and `twin`
+/// with that change at every pose.
+pub(super) fn with_retune(
+    twin: &Twin,
+    model: &ModalModel,
+    k: usize,
+    f: f64,
+    z: f64,
+) -> (ModalModel, Twin) {
+    let mut new = model.clone();
+    new.modes[k].wn *= f;
+    new.modes[k].zeta *= z;
+    let t = map_models(twin, |m| {
+        let mut m = m.clone();
+        crate::modal_update::apply_change(&mut m, model, &new, 1.0);
+        m
+    });
+    (new, t)
+}
+
+/// The modes of `model` the parts excite: removing one changes `twin`'s simulated
+/// response by at least [`TIME_RETUNE_MIN_SHARE`] of the measured one (RMS).
+pub(super) fn excited_modes(twin: &Twin, model: &ModalModel, fit: &InTime) -> Vec<usize> {
+    (0..model.modes.len())
+        .filter(|&k| {
+            let mut gone = with_retune(twin, model, k, 1.0, 1.0).1;
+            for p in &mut gone.poses {
+                for c in &mut p.model.channels {
+                    if let Some(n) = c.num.get_mut(k) {
+                        *n = crate::model::ModeNum { b0: 0.0, b1: 0.0 };
+                    }
+                }
+            }
+            let Some(y) = fit.sim(&gone) else {
+                return false;
+            };
+            let d: f64 = (fit.base_flat.iter())
+                .zip(&y)
+                .map(|(u, v)| (u - v) * (u - v))
+                .sum();
+            let share = (d / fit.power).sqrt();
+            super::trace(|| {
+                format!(
+                    "  mode [{k}] ({:.1} Hz): share of the response {share:.3}",
+                    model.modes[k].freq_hz()
+                )
+            });
+            share >= TIME_RETUNE_MIN_SHARE
+        })
+        .collect()
+}
+
+/// The search of a mode's frequency factor (within [`TIME_RETUNE_SPAN`], then finer
+/// around the best step) and damping factor ([`TIME_RETUNE_DAMPING`] at the best
+/// frequency) that minimises `score(f, z)` (`None`: not scored), starting from `r0` at
+/// (1, 1): `((score, f, z), ln of the span)`.
+pub(super) fn time_search(
+    r0: f64,
+    score: impl Fn(f64, f64) -> Option<f64>,
+) -> ((f64, f64, f64), f64) {
+    let ln_span = TIME_RETUNE_SPAN.ln();
+    let grid: Vec<f64> = (0..TIME_RETUNE_STEPS)
+        .map(|i| (-ln_span + 2.0 * ln_span * i as f64 / (TIME_RETUNE_STEPS - 1) as f64).exp())
+        .collect();
+    let mut top = (r0, 1.0, 1.0);
+    let try_at = |f: f64, z: f64, top: &mut (f64, f64, f64)| {
+        if let Some(r) = score(f, z) {
+            if r < top.0 {
+                *top = (r, f, z);
+            }
+        }
+    };
+    for &f in &grid {
+        try_at(f, 1.0, &mut top);
+    }
+    // finer around the best step
+    let step = (2.0 * ln_span / (TIME_RETUNE_STEPS - 1) as f64).exp();
+    let f1 = top.1;
+    for i in 1..=4 {
+        for f in [
+            f1 * step.powf(i as f64 / 5.0),
+            f1 / step.powf(i as f64 / 5.0),
+        ] {
+            try_at(f, 1.0, &mut top);
+        }
+    }
+    let f2 = top.1;
+    for &z in &TIME_RETUNE_DAMPING {
+        if z != 1.0 {
+            try_at(f2, z, &mut top);
+        }
+    }
+    (top, ln_span)
 }
 
 /// The direct channels' mean fit \[%\] of the FRF each pose of `twin` was identified from
@@ -540,49 +506,4 @@ fn twin_data_fits(twin: &Twin) -> Vec<f64> {
             d.iter().sum::<f64>() / d.len().max(1) as f64
         })
         .collect()
-}
-
-/// The records' force power per line (all force columns, each record's own lines):
-/// `(frequency [Hz], power)`, the mean removed.
-fn force_power(parts: &[crate::timeseries::TimeSeries]) -> Vec<(f64, f64)> {
-    let mut out = Vec::new();
-    for p in parts {
-        let n = p.len();
-        if n < 16 {
-            continue;
-        }
-        let fft = crate::spectra::plan(n);
-        let df = 1.0 / (n as f64 * p.dt);
-        for ax in crate::axis::Axis::ALL {
-            let Some(f) = p.force(ax) else { continue };
-            let mean = f.iter().sum::<f64>() / n as f64;
-            let mut x: Vec<f64> = f.iter().map(|v| v - mean).collect();
-            let mut spec = fft.make_output_vec();
-            if fft.process(&mut x, &mut spec).is_ok() {
-                out.extend(
-                    spec.iter()
-                        .enumerate()
-                        .map(|(l, c)| (l as f64 * df, c.norm_sqr())),
-                );
-            }
-        }
-    }
-    out
-}
-
-/// The share of the force power `power` ([`force_power`]) within the mode's half-power
-/// band around `lo..hi` Hz, widened to at least 3 % either side.
-fn force_share_near(power: &[(f64, f64)], lo: f64, hi: f64, zeta: f64) -> f64 {
-    let w = zeta.max(0.03);
-    let (a, b) = (lo * (1.0 - w), hi * (1.0 + w));
-    let all: f64 = power.iter().map(|p| p.1).sum();
-    let inside: f64 = (power.iter())
-        .filter(|(f, _)| *f >= a && *f <= b)
-        .map(|p| p.1)
-        .sum();
-    if all > 0.0 {
-        inside / all
-    } else {
-        0.0
-    }
 }
