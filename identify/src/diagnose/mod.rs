@@ -703,8 +703,9 @@ pub fn diagnose(
             .zip(&band_fits)
             .map(|((c, s), b)| {
                 format!(
-                    "  candidate {} chi {:.2} held-out {:.2} (twin {fit_before:.2}){}",
+                    "  candidate {}{} chi {:.2} held-out {:.2} (twin {fit_before:.2}){}",
                     c.cause,
+                    if c.fitted_in_time { " [in time]" } else { "" },
                     s.chi,
                     s.fit_holdout_pct,
                     b.map_or(String::new(), |((lo, hi), x, y)| format!(
