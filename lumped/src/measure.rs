@@ -68,6 +68,7 @@ impl Setup {
             hold: self.hold,
             tip_mass: self.tip_mass,
             repose_tol: 1e-3,
+            dense: false,
         }
     }
 }

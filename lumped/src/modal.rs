@@ -168,7 +168,7 @@ impl Machine {
 }
 
 /// Eigenvector of `a` for the eigenvalue `lam` by two steps of shifted inverse iteration.
-fn inverse_iteration(a: &DMatrix<Complex64>, lam: Complex64) -> DVector<Complex64> {
+pub(crate) fn inverse_iteration(a: &DMatrix<Complex64>, lam: Complex64) -> DVector<Complex64> {
     let n = a.nrows();
     let shift = lam + Complex64::new(1.0, 1.0) * (1e-10 * lam.norm().max(1.0));
     let mut s = a.clone();
