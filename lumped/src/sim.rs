@@ -265,24 +265,12 @@ impl ModalStep {
             l
         };
         let phi = back(&|i| step.e[i], &weighted_left);
-        let g0 = {
-            let mut g = DMatrix::<Complex64>::zeros(m, 3);
-            for i in 0..m {
-                for j in 0..3 {
-                    g[(i, j)] = step.g0[i][j] * step.w[i];
-                }
-            }
-            back(&|_| Complex64::new(1.0, 0.0), &g)
+        // a modal input matrix back in the physical state
+        let input = |g: &[[Complex64; 3]]| {
+            let rows = DMatrix::from_fn(m, 3, |i, j| g[i][j] * step.w[i]);
+            back(&|_| Complex64::new(1.0, 0.0), &rows)
         };
-        let g1 = {
-            let mut g = DMatrix::<Complex64>::zeros(m, 3);
-            for i in 0..m {
-                for j in 0..3 {
-                    g[(i, j)] = step.g1[i][j] * step.w[i];
-                }
-            }
-            back(&|_| Complex64::new(1.0, 0.0), &g)
-        };
+        let (g0, g1) = (input(&step.g0), input(&step.g1));
         let off = |a: &DMatrix<f64>, b: &DMatrix<f64>| {
             let big = b.amax().max(f64::MIN_POSITIVE);
             (a - b).amax() / big
@@ -595,17 +583,12 @@ pub fn static_joint_deflection(
 mod tests {
     use super::*;
 
-    /// A force with every frequency up to the simulation's Nyquist (a fixed sequence).
+    /// A force with every frequency up to the simulation's Nyquist (seeded noise).
     fn force(n: usize) -> Vec<[f64; 3]> {
-        let mut s = 12345u64;
-        let mut r = || {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand::rngs::StdRng::seed_from_u64(12345);
         (0..n)
-            .map(|_| [100.0 * r(), 60.0 * r(), 30.0 * r()])
+            .map(|_| [100.0, 60.0, 30.0].map(|a| a * (rng.gen::<f64>() - 0.5)))
             .collect()
     }
 
