@@ -49,44 +49,23 @@ impl<'a> InTime<'a> {
             .map(|s| simulate_as_measured_lti(base_twin, s))
             .collect::<crate::error::Result<_>>()
             .ok()?;
-        let mut me = InTime {
+        let measured = flatten(&still, &axes, |i, a| still[i].response(a))?;
+        let base_flat = flatten(&still, &axes, |i, a| Some(&base[i][a.index()][..]))?;
+        let power: f64 = measured.iter().map(|x| x * x).sum();
+        (power > 0.0).then_some(InTime {
             base_twin,
             still,
             axes,
             base,
-            measured: Vec::new(),
-            base_flat: Vec::new(),
-            power: 0.0,
-        };
-        let still = me.still.clone();
-        me.measured = me.flatten(|i, a| still[i].response(a).map(<[f64]>::to_vec))?;
-        me.base_flat = me.flatten_sims(&me.base.clone())?;
-        me.power = me.measured.iter().map(|x| x * x).sum();
-        (me.power > 0.0).then_some(me)
+            measured,
+            base_flat,
+            power,
+        })
     }
 
     /// The parts standing at their mean poses.
     pub(super) fn parts(&self) -> &[TimeSeries] {
         &self.still
-    }
-
-    /// `get(part, axis)` of every part and judged axis with a measured response,
-    /// concatenated.
-    fn flatten(&self, mut get: impl FnMut(usize, Axis) -> Option<Vec<f64>>) -> Option<Vec<f64>> {
-        let mut out = Vec::new();
-        for (i, s) in self.still.iter().enumerate() {
-            for a in &self.axes {
-                if s.response(*a).is_none() {
-                    continue;
-                }
-                out.extend(get(i, *a)?);
-            }
-        }
-        Some(out)
-    }
-
-    fn flatten_sims(&self, sims: &[[Vec<f64>; 3]]) -> Option<Vec<f64>> {
-        self.flatten(|i, a| sims.get(i).map(|y| y[a.index()].clone()))
     }
 
     /// The simulation of `t` (which differs from the base twin in a few modes or
@@ -99,7 +78,9 @@ impl<'a> InTime<'a> {
             .map(|(s, b)| resimulate_as_measured_lti(self.base_twin, t, s, b))
             .collect::<crate::error::Result<_>>()
             .ok()?;
-        self.flatten_sims(&sims)
+        flatten(&self.still, &self.axes, |i, a| {
+            Some(&sims[i][a.index()][..])
+        })
     }
 
     /// Σ (measured − simulation of `t`)².
@@ -113,6 +94,24 @@ impl<'a> InTime<'a> {
                 .sum(),
         )
     }
+}
+
+/// `get(part, axis)` of every part of `still` and judged axis with a measured response,
+/// concatenated.
+fn flatten<'s>(
+    still: &[TimeSeries],
+    axes: &[Axis],
+    get: impl Fn(usize, Axis) -> Option<&'s [f64]>,
+) -> Option<Vec<f64>> {
+    let mut out = Vec::new();
+    for (i, s) in still.iter().enumerate() {
+        for a in axes {
+            if s.response(*a).is_some() {
+                out.extend_from_slice(get(i, *a)?);
+            }
+        }
+    }
+    Some(out)
 }
 
 /// The records' force power per line (all force columns, each record's own lines):
