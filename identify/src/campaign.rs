@@ -1910,6 +1910,12 @@ fn common_residual_poles(fits: &mut [PoseFit], freeze: Freeze) -> Result<(Vec<St
     }
     let refused_irregular = refused.is_some() && !irregular.is_empty();
     let Some((models, common)) = chosen else {
+        // no pole for every pose: each pose where such a mode departs wildly from the
+        // same mode at its nearest poses takes theirs (numerators solved anew) where
+        // that costs its fit at most RESIDUAL_MAX_FIT_DROP
+        let mut set = outside.clone();
+        set.extend(&irregular);
+        notes.extend(local_residual_poles(fits, &set, &before, pose_fit)?);
         return Ok((notes, refused_irregular));
     };
     for (f, m) in fits.iter_mut().zip(models) {
@@ -1934,6 +1940,87 @@ fn common_residual_poles(fits: &mut [PoseFit], freeze: Freeze) -> Result<(Vec<St
             .join(", ")
     ));
     Ok((notes, refused_irregular))
+}
+
+/// How many nearest poses [`local_residual_poles`] compares a pose's mode with.
+const LOCAL_NEIGHBOURS: usize = 4;
+/// A mode whose natural frequency departs by more than this factor from the median of
+/// the same mode at its [`LOCAL_NEIGHBOURS`] nearest poses is wild there.
+const LOCAL_WILD_FACTOR: f64 = 1.25;
+
+/// For each mode of `set` (modes outside the band or off a smooth trend that could not
+/// get one pole for every pose): each pose where it departs by more than
+/// [`LOCAL_WILD_FACTOR`] from the median of the same mode at its nearest poses, or is
+/// damped beyond [`RESIDUAL_ZETA`] where they are not, takes their median pole, its
+/// numerators solved anew, when that costs the pose's fit (`before`) at most
+/// [`RESIDUAL_MAX_FIT_DROP`] (second generator, an 18-pose campaign: a slot at 70-75 Hz
+/// held 4.7 Hz at 124 % damping at two poses, another 66-232 Hz, and the twin between
+/// them interpolated those).
+fn local_residual_poles(
+    fits: &mut [PoseFit],
+    set: &[usize],
+    before: &[f64],
+    pose_fit: impl Fn(&PoseFit, &ModalModel) -> f64,
+) -> Result<Vec<String>> {
+    let n = fits.len();
+    if n <= LOCAL_NEIGHBOURS || set.is_empty() {
+        return Ok(Vec::new());
+    }
+    let median = |mut v: Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    let dist = |a: [f64; 3], b: [f64; 3]| (0..3).map(|i| (a[i] - b[i]).powi(2)).sum::<f64>();
+    let original: Vec<ModalModel> = fits.iter().map(|f| f.model.clone()).collect();
+    let mut repaired = Vec::new();
+    for p in 0..n {
+        let mut near: Vec<usize> = (0..n).filter(|&q| q != p).collect();
+        near.sort_by(|&a, &b| {
+            dist(fits[a].pose, fits[p].pose).total_cmp(&dist(fits[b].pose, fits[p].pose))
+        });
+        near.truncate(LOCAL_NEIGHBOURS);
+        let mut m = fits[p].model.clone();
+        let mut changed = Vec::new();
+        for &k in set {
+            let wn = median(near.iter().map(|&q| original[q].modes[k].wn.ln()).collect()).exp();
+            let zeta = median(near.iter().map(|&q| original[q].modes[k].zeta).collect());
+            let own = original[p].modes[k];
+            let wild = (own.wn / wn).ln().abs() > LOCAL_WILD_FACTOR.ln()
+                || (own.zeta > RESIDUAL_ZETA && zeta <= RESIDUAL_ZETA);
+            if wild {
+                m.modes[k].wn = wn;
+                m.modes[k].zeta = zeta;
+                changed.push((k, own, wn, zeta));
+            }
+        }
+        if changed.is_empty() {
+            continue;
+        }
+        let solved = resolve_numerators(&fits[p], m)?;
+        let after = pose_fit(&fits[p], &solved);
+        if before[p] - after <= RESIDUAL_MAX_FIT_DROP {
+            fits[p].model = solved;
+            for (k, own, wn, zeta) in changed {
+                repaired.push(format!(
+                    "pose {p}: mode {} {:.1} Hz / {:.0} % -> {:.1} Hz / {:.0} % (its neighbours')",
+                    k + 1,
+                    own.wn / (2.0 * std::f64::consts::PI),
+                    100.0 * own.zeta,
+                    wn / (2.0 * std::f64::consts::PI),
+                    100.0 * zeta
+                ));
+            }
+        }
+    }
+    Ok(if repaired.is_empty() {
+        Vec::new()
+    } else {
+        vec![format!(
+            "modes off a smooth trend that depart wildly at a pose take their nearest poses' pole there ({}): \
+             the twin between poses follows the neighbours",
+            repaired.join("; ")
+        )]
+    })
 }
 
 /// The pose models with some poles made common, those poles (mode, ωn, ζ), and the
