@@ -1845,10 +1845,6 @@ fn common_residual_poles(fits: &mut [PoseFit], freeze: Freeze) -> Result<(Vec<St
         mean_fit(&channel_fits_as(&w, &f.frf, &band, 0, None))
     };
     let before: Vec<f64> = fits.iter().map(|f| pose_fit(f, &f.model)).collect();
-    let median = |mut v: Vec<f64>| {
-        v.sort_by(f64::total_cmp);
-        v[v.len() / 2]
-    };
     // one pole for the modes `set` at every pose, every pose's numerators solved again;
     // with the largest drop of a pose's fit
     let freeze_set = |set: &[usize]| -> Result<Frozen> {
@@ -1942,6 +1938,12 @@ fn common_residual_poles(fits: &mut [PoseFit], freeze: Freeze) -> Result<(Vec<St
     Ok((notes, refused_irregular))
 }
 
+/// The middle value of `v` (the upper one of an even count); `v` not empty.
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
 /// How many nearest poses [`local_residual_poles`] compares a pose's mode with.
 const LOCAL_NEIGHBOURS: usize = 4;
 /// A mode whose natural frequency departs by more than this factor from the median of
@@ -1966,10 +1968,6 @@ fn local_residual_poles(
     if n <= LOCAL_NEIGHBOURS || set.is_empty() {
         return Ok(Vec::new());
     }
-    let median = |mut v: Vec<f64>| {
-        v.sort_by(f64::total_cmp);
-        v[v.len() / 2]
-    };
     let dist = |a: [f64; 3], b: [f64; 3]| (0..3).map(|i| (a[i] - b[i]).powi(2)).sum::<f64>();
     let original: Vec<ModalModel> = fits.iter().map(|f| f.model.clone()).collect();
     let mut repaired = Vec::new();
