@@ -1293,14 +1293,7 @@ fn local_modes(fits: &mut [PoseFit]) -> Result<Vec<String>> {
     if n < 2 || fits.iter().any(|f| f.model.modes.len() != n_modes) {
         return Ok(Vec::new());
     }
-    let pose_fit = |f: &PoseFit, m: &ModalModel| {
-        let mut w = m.clone();
-        if let Some(s) = f.sigma {
-            w.shift_poles(-s);
-        }
-        let band = band_of(&f.frf, &f.options);
-        direct_mean_fit(&channel_fits_as(&w, &f.frf, &band, 0, None))
-    };
+    let pose_fit = |f: &PoseFit, m: &ModalModel| direct_mean_fit(&pose_channel_fits(f, m));
     // per pose: the modes added there (pole) and the solved model with them appended
     let mut added: Vec<Option<(Vec<crate::model::Mode>, ModalModel)>> = vec![None; n];
     let mut notes = Vec::new();
@@ -2034,15 +2027,8 @@ fn common_residual_poles(fits: &mut [PoseFit], freeze: Freeze) -> Result<(Vec<St
     if outside.is_empty() && irregular.is_empty() {
         return Ok((notes, false));
     }
-    // each pose's fit of its FRF (unwindowed model in the windowed domain)
-    let pose_fit = |f: &PoseFit, m: &ModalModel| {
-        let mut w = m.clone();
-        if let Some(s) = f.sigma {
-            w.shift_poles(-s);
-        }
-        let band = band_of(&f.frf, &f.options);
-        mean_fit(&channel_fits_as(&w, &f.frf, &band, 0, None))
-    };
+    // each pose's fit of its FRF
+    let pose_fit = |f: &PoseFit, m: &ModalModel| mean_fit(&pose_channel_fits(f, m));
     let before: Vec<f64> = fits.iter().map(|f| pose_fit(f, &f.model)).collect();
     // one pole for the modes `set` at every pose, every pose's numerators solved again;
     // with the largest drop of a pose's fit
@@ -2135,6 +2121,16 @@ fn common_residual_poles(fits: &mut [PoseFit], freeze: Freeze) -> Result<(Vec<St
             .join(", ")
     ));
     Ok((notes, refused_irregular))
+}
+
+/// Pose `f`'s channel fits of its FRF by `m` (unwindowed, as pose models are kept: judged
+/// in the windowed domain of the FRF), each channel in the pose's band.
+fn pose_channel_fits(f: &PoseFit, m: &ModalModel) -> Vec<ChannelFit> {
+    let mut w = m.clone();
+    if let Some(s) = f.sigma {
+        w.shift_poles(-s);
+    }
+    channel_fits_as(&w, &f.frf, &band_of(&f.frf, &f.options), 0, None)
 }
 
 /// The middle value of `v` (the upper one of an even count); `v` not empty.

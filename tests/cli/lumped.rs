@@ -171,6 +171,16 @@ fn twin_vs_loaded_truth(
     identify::frf::fit_percent(&t, &e)
 }
 
+/// `mtwin identify -q FILES --out OUT` with the defaults, which must succeed: the twin.
+fn identify_quietly(files: &[PathBuf], out: &Path) -> identify::twin::Twin {
+    let mut args = vec!["identify", "-q"];
+    args.extend(files.iter().map(|p| s(p)));
+    args.extend(["--out", s(out)]);
+    let o = mtwin(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    identify::twin::Twin::load(out).expect("twin loads")
+}
+
 /// The 3x3x2 grid of the lumped campaigns (x, then y, then z innermost).
 fn campaign_grid() -> Vec<[f64; 3]> {
     let mut grid = Vec::new();
@@ -245,12 +255,7 @@ fn lumped_campaign_keeps_a_channel_coherent_at_some_poses_in_every_pose_model() 
     let setup = Setup::impact();
     let (grid, files) = campaign_files(dir.path(), &machine, 2000);
     let twin_path = dir.path().join("twin.json");
-    let mut args = vec!["identify", "-q"];
-    args.extend(files.iter().map(|p| s(p)));
-    args.extend(["--out", s(&twin_path)]);
-    let o = mtwin(&args);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let twin = identify::twin::Twin::load(&twin_path).expect("twin loads");
+    let twin = identify_quietly(&files, &twin_path);
     let zy = Channel::new(Axis::Z, Axis::Y);
     let (mut held, mut fitted) = (0, 0);
     for p in &twin.poses {
@@ -318,13 +323,7 @@ fn lumped_campaign_keeps_a_mode_that_only_some_poses_hold() {
     let machine = Machine::nominal();
     let setup = Setup::impact();
     let (poses, files) = campaign_files_at(dir.path(), &machine, 2000, &[6, 7, 8, 9, 10, 11]);
-    let twin_path = dir.path().join("twin.json");
-    let mut args = vec!["identify", "-q"];
-    args.extend(files.iter().map(|p| s(p)));
-    args.extend(["--out", s(&twin_path)]);
-    let o = mtwin(&args);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let twin = identify::twin::Twin::load(&twin_path).expect("twin loads");
+    let twin = identify_quietly(&files, &dir.path().join("twin.json"));
     let upper: Vec<f64> = (poses.iter())
         .filter(|p| p[2] > 0.2)
         .map(|&p| twin_vs_loaded_truth(&twin, &machine, p, (0, 0), (30.0, 2500.0), setup.tip_mass))
