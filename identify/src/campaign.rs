@@ -1294,8 +1294,8 @@ fn local_modes(fits: &mut [PoseFit]) -> Result<Vec<String>> {
         return Ok(Vec::new());
     }
     let pose_fit = |f: &PoseFit, m: &ModalModel| direct_mean_fit(&pose_channel_fits(f, m));
-    // per pose: the modes added there (pole) and the solved model with them appended
-    let mut added: Vec<Option<(Vec<crate::model::Mode>, ModalModel)>> = vec![None; n];
+    // per pose: the model solved with the modes added there appended (after `n_modes`)
+    let mut added: Vec<Option<ModalModel>> = vec![None; n];
     let mut notes = Vec::new();
     for (p, f) in fits.iter().enumerate() {
         if f.own.modes.is_empty() {
@@ -1374,23 +1374,25 @@ fn local_modes(fits: &mut [PoseFit]) -> Result<Vec<String>> {
                     .collect::<Vec<_>>()
                     .join(", "),
             ));
-            added[p] = Some((kept, solved));
+            added[p] = Some(solved);
         }
     }
     if added.iter().all(Option::is_none) {
         return Ok(Vec::new());
     }
+    // the `j`-th mode added at pose `q`
+    let added_mode = |q: usize, j: usize| added[q].as_ref().map(|m| m.modes[n_modes + j]);
     // slots: modes of different poses within LOCAL_MODE_SLOT of each other share one;
     // per slot, the pose and index (in that pose's added modes) where it is active
     let mut slots: Vec<Vec<(usize, usize)>> = Vec::new();
     for (p, a) in added.iter().enumerate() {
-        let Some((lost, _)) = a else { continue };
-        for (i, m) in lost.iter().enumerate() {
+        let Some(solved) = a else { continue };
+        for (i, m) in solved.modes[n_modes..].iter().enumerate() {
             let hz = m.freq_hz();
             let slot = slots.iter().position(|s| {
                 s.iter().all(|&(q, _)| q != p)
                     && s.iter().any(|&(q, j)| {
-                        let other = added[q].as_ref().map_or(0.0, |a| a.0[j].freq_hz());
+                        let other = added_mode(q, j).map_or(0.0, |m| m.freq_hz());
                         (hz / other).ln().abs() <= LOCAL_MODE_SLOT.ln()
                     })
             });
@@ -1404,7 +1406,7 @@ fn local_modes(fits: &mut [PoseFit]) -> Result<Vec<String>> {
     let poses: Vec<[f64; 3]> = fits.iter().map(|f| f.pose).collect();
     for (p, f) in fits.iter_mut().enumerate() {
         let mut m = match &added[p] {
-            Some((_, solved)) => {
+            Some(solved) => {
                 let mut base = solved.clone();
                 base.modes.truncate(n_modes);
                 for c in &mut base.channels {
@@ -1416,7 +1418,7 @@ fn local_modes(fits: &mut [PoseFit]) -> Result<Vec<String>> {
         };
         for slot in &slots {
             if let Some(&(_, i)) = slot.iter().find(|&&(q, _)| q == p) {
-                let solved = &added[p].as_ref().map(|a| &a.1).expect("active pose");
+                let solved = added[p].as_ref().expect("active pose");
                 m.modes.push(solved.modes[n_modes + i]);
                 for (c, sc) in m.channels.iter_mut().zip(&solved.channels) {
                     c.num.push(sc.num[n_modes + i]);
@@ -1428,7 +1430,7 @@ fn local_modes(fits: &mut [PoseFit]) -> Result<Vec<String>> {
                         dist(poses[a.0], poses[p]).total_cmp(&dist(poses[b.0], poses[p]))
                     })
                     .expect("a slot has an active pose");
-                let pole = added[q].as_ref().map(|a| a.0[j]).expect("active pose");
+                let pole = added_mode(q, j).expect("active pose");
                 m.modes.push(pole);
                 for c in &mut m.channels {
                     c.num.push(crate::model::ModeNum::default());
