@@ -4,19 +4,22 @@
 # and installed) from a pinned Python venv this script sets up.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+# every stage prints the seconds since the start, so a slow stage shows in the log
+stage() { echo "== $* (at ${SECONDS} s)"; }
 ./scripts/setup-rust.sh
-echo "== cargo fmt --check"
+stage "cargo fmt --check"
 cargo fmt --all -- --check
-echo "== cargo clippy"
+stage "cargo clippy"
 cargo clippy --workspace --all-targets -- -D warnings
 # release: the build the importers' tests below use too, and the CLI tests run identify
 # on real-size data (the debug build cost ~8 of the suite's 20 minutes)
-echo "== cargo test (release)"
+stage "cargo test (release)"
 cargo test --workspace --release
-echo "== cargo doc"
+stage "cargo doc"
 RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps
-echo "== FMU in real importers (pytest: fmpy, libcosimpy), the Python package, its fleet on Dask"
+stage "FMU in real importers (pytest: fmpy, libcosimpy), the Python package, its fleet on Dask"
 ./scripts/setup-python.sh
 cargo build --release --workspace --bins --examples
 ./scripts/build-wheel.sh --install
 .venv/bin/python -m pytest -q tests/python
+stage "all tests passed"
