@@ -10,13 +10,15 @@ stage() { echo "== $* (at ${SECONDS} s)"; }
 stage "cargo fmt --check"
 cargo fmt --all -- --check
 stage "cargo clippy"
-cargo clippy --workspace --all-targets -- -D warnings
+# in the release profile, as every build below: build scripts and proc macros are then
+# compiled once for all stages (the dev profile builds them again, at opt-level 3)
+cargo clippy --release --workspace --all-targets -- -D warnings
 # release: the build the importers' tests below use too, and the CLI tests run identify
 # on real-size data (the debug build cost ~8 of the suite's 20 minutes)
 stage "cargo test (release)"
 cargo test --workspace --release
 stage "cargo doc"
-RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps
+RUSTDOCFLAGS="-D warnings" cargo doc --release --workspace --no-deps
 stage "FMU in real importers (pytest: fmpy, libcosimpy), the Python package, its fleet on Dask"
 ./scripts/setup-python.sh
 cargo build --release --workspace --bins --examples
