@@ -238,6 +238,10 @@ pub const QUALITY_WARNING_BELOW: f64 = 90.0;
 /// ([`ChannelFit::noise_limit_pct`]) gets no quality warning.
 pub const NOISE_LIMIT_MARGIN: f64 = 5.0;
 
+/// A rank-one residue matrix (modal consistency, `consistency.rs`) is kept when no direct channel's fit
+/// of its measured FRF drops by more than this \[points\].
+pub const RANK_ONE_TOLERANCE_PCT: f64 = 0.5;
+
 fn band_of(frf: &Frf, opts: &FitOptions) -> Bands {
     let lo = frf.freqs_hz.first().copied().unwrap_or(0.0);
     let hi = frf.freqs_hz.last().copied().unwrap_or(0.0);
@@ -1576,6 +1580,46 @@ fn finish_campaign(
                 windowed.shift_poles(-s);
             }
             let power = f.plan.measured_as.map_or(0, |m| m.power());
+            {
+                let bands = f.plan.bands(band.pose);
+                let sigma = f.sigma;
+                let (frf, averages) = (&f.frf, f.plan.averages);
+                let direct = |m: &ModalModel| {
+                    let mut w = m.clone();
+                    if let Some(s) = sigma {
+                        w.shift_poles(-s);
+                    }
+                    channel_fits_as(&w, frf, &bands, power, averages)
+                        .into_iter()
+                        .filter(|c| c.channel.output == c.channel.input)
+                        .map(|c| c.fit_pct)
+                        .collect::<Vec<f64>>()
+                };
+                let debug = std::env::var_os("MTWIN_DEBUG_RANK1").is_some();
+                let notes =
+                    crate::consistency::rank_one_residues(&mut f.model, band.pose, |a, b| {
+                        let (fa, fb) = (direct(a), direct(b));
+                        if debug {
+                            eprintln!("pose {:?} rank one: {fa:?} -> {fb:?}", f.pose);
+                        }
+                        fa.iter()
+                            .zip(&fb)
+                            .all(|(a, b)| *b >= a - RANK_ONE_TOLERANCE_PCT)
+                    });
+                if !notes.is_empty() {
+                    windowed = f.model.clone();
+                    if let Some(s) = f.sigma {
+                        windowed.shift_poles(-s);
+                    }
+                    f.plan.alternatives.push(format!(
+                        "modal consistency: the residues of {} between the hammered \
+                         directions made rank one (one mode shape; the stray residue a free \
+                         fit leaves in the other direction removed): {}",
+                        crate::axis::count(notes.len(), "isolated mode"),
+                        notes.join(", ")
+                    ));
+                }
+            }
             if power > 0 {
                 let notes = drop_unsupported_residuals(
                     &mut f.model,

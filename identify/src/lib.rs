@@ -37,6 +37,7 @@
 #![deny(missing_docs)]
 
 pub mod campaign;
+mod consistency;
 pub mod diagnose;
 mod eigen;
 pub mod fit;

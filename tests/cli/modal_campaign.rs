@@ -24,7 +24,11 @@ struct Machine {
 }
 
 impl Machine {
-    fn draw(rng: &mut StdRng) -> Machine {
+    /// With `oblique`, about a third of the modes move the tool in a direction between x
+    /// and y (15-75 degrees, as the tryout gantry's 121 Hz mode): their cross channels
+    /// carry a response, and modes of different directions may come close or cross.
+    /// Without, every mode moves the tool along x or along y only.
+    fn draw_with(rng: &mut StdRng, oblique: bool) -> Machine {
         let corners: Vec<[f64; 3]> = [0.2, 0.8]
             .iter()
             .flat_map(|&x| {
@@ -41,7 +45,12 @@ impl Machine {
                     .iter()
                     .map(|&f| {
                         let mut d = [0.0; 3];
-                        d[rng.gen_range(0..2)] = 1.0;
+                        if oblique && rng.gen_bool(0.35) {
+                            let th = rng.gen_range(15f64..75.0).to_radians();
+                            d = [th.cos(), th.sin(), 0.0];
+                        } else {
+                            d[rng.gen_range(0..2)] = 1.0;
+                        }
                         Mode {
                             f0: f,
                             zeta: rng.gen_range(0.01..0.05),
@@ -57,17 +66,22 @@ impl Machine {
             // modes of one direction resolvable (and not crossing) everywhere
             let ok = (0..8).all(|i| {
                 (i + 1..8).all(|j| {
-                    m.modes[i].d != m.modes[j].d || {
-                        let gaps: Vec<f64> = corners
-                            .iter()
-                            .map(|p| m.at(*p)[i].f0 - m.at(*p)[j].f0)
-                            .collect();
-                        let need = (m.modes[i].zeta + m.modes[j].zeta)
-                            * 0.5
-                            * (m.modes[i].f0 + m.modes[j].f0);
-                        gaps.iter().all(|g| g.abs() >= need)
-                            && (gaps.iter().all(|g| *g > 0.0) || gaps.iter().all(|g| *g < 0.0))
-                    }
+                    (0..3)
+                        .map(|a| m.modes[i].d[a] * m.modes[j].d[a])
+                        .sum::<f64>()
+                        .abs()
+                        < 0.5
+                        || {
+                            let gaps: Vec<f64> = corners
+                                .iter()
+                                .map(|p| m.at(*p)[i].f0 - m.at(*p)[j].f0)
+                                .collect();
+                            let need = (m.modes[i].zeta + m.modes[j].zeta)
+                                * 0.5
+                                * (m.modes[i].f0 + m.modes[j].f0);
+                            gaps.iter().all(|g| g.abs() >= need)
+                                && (gaps.iter().all(|g| *g > 0.0) || gaps.iter().all(|g| *g < 0.0))
+                        }
                 })
             });
             if ok {
@@ -137,8 +151,16 @@ fn impacts(dir: &std::path::Path, tag: &str, modes: &[Mode], pose: [f64; 3], rng
 
 /// A drawn machine, its campaign identified with defaults: (machine, folder, twin).
 fn campaign(seed: u64) -> (Machine, tempfile::TempDir, Twin, std::path::PathBuf, StdRng) {
+    campaign_with(seed, false)
+}
+
+/// [`campaign`] of a machine drawn with or without oblique modes ([`Machine::draw_with`]).
+fn campaign_with(
+    seed: u64,
+    oblique: bool,
+) -> (Machine, tempfile::TempDir, Twin, std::path::PathBuf, StdRng) {
     let mut rng = StdRng::seed_from_u64(seed);
-    let machine = Machine::draw(&mut rng);
+    let machine = Machine::draw_with(&mut rng, oblique);
     let dir = tmp();
     let data = dir.path().join("campaign");
     for (g, p) in grid().iter().enumerate() {
@@ -153,9 +175,38 @@ fn campaign(seed: u64) -> (Machine, tempfile::TempDir, Twin, std::path::PathBuf,
 
 #[test]
 fn eighteen_pose_modal_campaign_twin_fits_the_truth_everywhere() {
+    let wrong = fits_everywhere(&[11, 12], false, 99.0);
+    assert!(wrong.is_empty(), "{wrong:#?}");
+}
+
+/// Scan: `MTWIN_SCAN_SEEDS=31-40 cargo test --release --test cli modal_campaign::scan --
+/// --ignored --nocapture` prints every seed's worst measured and unmeasured fit of a
+/// machine with oblique modes.
+#[test]
+#[ignore]
+fn scan_oblique_modal_campaigns() {
+    let (a, b) = std::env::var("MTWIN_SCAN_SEEDS")
+        .ok()
+        .and_then(|v| {
+            let (a, b) = v.split_once('-')?;
+            Some((a.parse().ok()?, b.parse().ok()?))
+        })
+        .unwrap_or((31u64, 34u64));
+    let seeds: Vec<u64> = (a..=b).collect();
+    let wrong = fits_everywhere(&seeds, true, 99.5);
+    eprintln!(
+        "{} of {} below target: {wrong:#?}",
+        wrong.len(),
+        seeds.len()
+    );
+}
+
+/// The campaigns of `seeds`, each twin against its truth: a line per seed whose worst
+/// measured pose fits below `target` or an unmeasured one below 98 %.
+fn fits_everywhere(seeds: &[u64], oblique: bool, target: f64) -> Vec<String> {
     let mut wrong = Vec::new();
-    for seed in [11u64, 12] {
-        let (machine, _dir, twin, _, _) = campaign(seed);
+    for &seed in seeds {
+        let (machine, _dir, twin, _, _) = campaign_with(seed, oblique);
         let grid = grid();
         let measured: Vec<f64> = grid.iter().map(|p| vs_truth(&twin, &machine, *p)).collect();
         let unmeasured: Vec<f64> = [[0.35, 0.3, 0.2], [0.65, 0.5, 0.15], [0.4, 0.55, 0.25]]
@@ -169,16 +220,16 @@ fn eighteen_pose_modal_campaign_twin_fits_the_truth_everywhere() {
             machine
                 .modes
                 .iter()
-                .map(|m| (m.f0.round(), m.d[0] > 0.5))
+                .map(|m| (m.f0.round(), m.d[1].atan2(m.d[0]).to_degrees().round()))
                 .collect::<Vec<_>>()
         );
-        if worst < 99.0 || u_worst < 98.0 {
+        if worst < target || u_worst < 98.0 {
             wrong.push(format!(
                 "seed {seed}: measured {measured:.2?}, unmeasured {unmeasured:.2?}"
             ));
         }
     }
-    assert!(wrong.is_empty(), "{wrong:#?}");
+    wrong
 }
 
 /// Data at two poses along one axis where one mode moves with the pose faster than the
