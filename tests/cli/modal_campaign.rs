@@ -206,7 +206,33 @@ fn scan_oblique_modal_campaigns() {
 fn fits_everywhere(seeds: &[u64], oblique: bool, target: f64) -> Vec<String> {
     let mut wrong = Vec::new();
     for &seed in seeds {
-        let (machine, _dir, twin, _, _) = campaign_with(seed, oblique);
+        let (machine, dir, twin, _, _) = campaign_with(seed, oblique);
+        if let Some(keep) = std::env::var_os("MTWIN_SCAN_KEEP") {
+            // the records, the twin and the machine (modes at every grid pose) for a look
+            let to = std::path::Path::new(&keep).join(format!("seed{seed}"));
+            std::fs::create_dir_all(&to).expect("keep folder");
+            for e in std::fs::read_dir(dir.path().join("campaign")).expect("campaign") {
+                let e = e.expect("entry");
+                std::fs::copy(e.path(), to.join(e.file_name())).expect("copy");
+            }
+            std::fs::copy(dir.path().join("twin.json"), to.join("twin.json")).expect("copy");
+            let poses: Vec<serde_json::Value> = grid()
+                .iter()
+                .map(|p| {
+                    let m: Vec<serde_json::Value> = machine
+                        .at(*p)
+                        .iter()
+                        .map(|m| serde_json::json!([m.f0, m.zeta, m.k, m.d]))
+                        .collect();
+                    serde_json::json!({"pose": p, "modes": m})
+                })
+                .collect();
+            std::fs::write(
+                to.join("machine.json"),
+                serde_json::Value::from(poses).to_string(),
+            )
+            .expect("machine.json");
+        }
         let grid = grid();
         let measured: Vec<f64> = grid.iter().map(|p| vs_truth(&twin, &machine, *p)).collect();
         let unmeasured: Vec<f64> = [[0.35, 0.3, 0.2], [0.65, 0.5, 0.15], [0.4, 0.55, 0.25]]
