@@ -238,8 +238,8 @@ pub const QUALITY_WARNING_BELOW: f64 = 90.0;
 /// ([`ChannelFit::noise_limit_pct`]) gets no quality warning.
 pub const NOISE_LIMIT_MARGIN: f64 = 5.0;
 
-/// A rank-one residue matrix (modal consistency, `consistency.rs`) is kept when no direct channel's fit
-/// of its measured FRF drops by more than this \[points\].
+/// A pose's residue matrices made rank one (modal consistency, `consistency.rs`) are kept
+/// while no direct channel's fit of its measured FRF drops by more than this \[points\].
 pub const RANK_ONE_TOLERANCE_PCT: f64 = 0.5;
 
 fn band_of(frf: &Frf, opts: &FitOptions) -> Bands {
@@ -1509,6 +1509,45 @@ fn damp_unresolved_outside(fits: &mut [PoseFit]) -> Result<()> {
     Ok(())
 }
 
+/// Modal consistency of pose `f` ([`crate::consistency`]): each isolated mode's residues
+/// between the hammered directions made rank one while no direct channel's fit of the
+/// measured FRF (as measured, `power`) drops by more than [`RANK_ONE_TOLERANCE_PCT`]
+/// from the pose's own fit. True when the model changed (the plan says which modes).
+fn modal_consistency(f: &mut PoseFit, band: (f64, f64), power: i32) -> bool {
+    let bands = f.plan.bands(band);
+    let direct = |m: &ModalModel| {
+        let mut w = m.clone();
+        if let Some(s) = f.sigma {
+            w.shift_poles(-s);
+        }
+        channel_fits_as(&w, &f.frf, &bands, power, f.plan.averages)
+            .into_iter()
+            .filter(|c| c.channel.output == c.channel.input)
+            .map(|c| c.fit_pct)
+            .collect::<Vec<f64>>()
+    };
+    let before = direct(&f.model);
+    let mut model = f.model.clone();
+    let notes = crate::consistency::rank_one_residues(&mut model, band, |m| {
+        before
+            .iter()
+            .zip(direct(m))
+            .all(|(a, b)| b >= a - RANK_ONE_TOLERANCE_PCT)
+    });
+    if notes.is_empty() {
+        return false;
+    }
+    f.model = model;
+    f.plan.alternatives.push(format!(
+        "modal consistency: the residues of {} between the hammered directions made rank \
+         one (one mode shape; the stray residue a free fit leaves in the other direction \
+         removed): {}",
+        crate::axis::count(notes.len(), "isolated mode"),
+        notes.join(", ")
+    ));
+    true
+}
+
 /// Tracking, mode assignment, residual poles and the twin, from the pose fits.
 fn finish_campaign(
     mut fits: Vec<PoseFit>,
@@ -1580,44 +1619,10 @@ fn finish_campaign(
                 windowed.shift_poles(-s);
             }
             let power = f.plan.measured_as.map_or(0, |m| m.power());
-            {
-                let bands = f.plan.bands(band.pose);
-                let sigma = f.sigma;
-                let (frf, averages) = (&f.frf, f.plan.averages);
-                let direct = |m: &ModalModel| {
-                    let mut w = m.clone();
-                    if let Some(s) = sigma {
-                        w.shift_poles(-s);
-                    }
-                    channel_fits_as(&w, frf, &bands, power, averages)
-                        .into_iter()
-                        .filter(|c| c.channel.output == c.channel.input)
-                        .map(|c| c.fit_pct)
-                        .collect::<Vec<f64>>()
-                };
-                let debug = std::env::var_os("MTWIN_DEBUG_RANK1").is_some();
-                let notes =
-                    crate::consistency::rank_one_residues(&mut f.model, band.pose, |a, b| {
-                        let (fa, fb) = (direct(a), direct(b));
-                        if debug {
-                            eprintln!("pose {:?} rank one: {fa:?} -> {fb:?}", f.pose);
-                        }
-                        fa.iter()
-                            .zip(&fb)
-                            .all(|(a, b)| *b >= a - RANK_ONE_TOLERANCE_PCT)
-                    });
-                if !notes.is_empty() {
-                    windowed = f.model.clone();
-                    if let Some(s) = f.sigma {
-                        windowed.shift_poles(-s);
-                    }
-                    f.plan.alternatives.push(format!(
-                        "modal consistency: the residues of {} between the hammered \
-                         directions made rank one (one mode shape; the stray residue a free \
-                         fit leaves in the other direction removed): {}",
-                        crate::axis::count(notes.len(), "isolated mode"),
-                        notes.join(", ")
-                    ));
+            if modal_consistency(&mut f, band.pose, power) {
+                windowed = f.model.clone();
+                if let Some(s) = f.sigma {
+                    windowed.shift_poles(-s);
                 }
             }
             if power > 0 {

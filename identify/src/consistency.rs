@@ -98,12 +98,12 @@ fn rank_one(model: &ModalModel, k: usize, idx: &[Vec<usize>]) -> Option<(Vec<Mod
 }
 
 /// Replaces the residues of each isolated mode of `model` between the hammered directions
-/// by their nearest rank-one matrix, one mode at a time, keeping each change that `keeps`
-/// accepts (given the model before and after). Returns one note per mode changed.
+/// by their nearest rank-one matrix, one mode at a time, keeping each change while `keeps`
+/// accepts the model with it (and those kept before). Returns one note per mode changed.
 pub(crate) fn rank_one_residues(
     model: &mut ModalModel,
     band: (f64, f64),
-    keeps: impl Fn(&ModalModel, &ModalModel) -> bool,
+    keeps: impl Fn(&ModalModel) -> bool,
 ) -> Vec<String> {
     let Some((_, idx)) = collocated_block(model) else {
         return Vec::new();
@@ -123,13 +123,7 @@ pub(crate) fn rank_one_residues(
                 next.channels[idx[o][i]].num[k] = nums[o * n + i];
             }
         }
-        if std::env::var_os("MTWIN_DEBUG_RANK1").is_some() {
-            eprintln!(
-                "rank one: mode {:.1} Hz, ratio {ratio:.4}",
-                model.modes[k].freq_hz()
-            );
-        }
-        if ratio > MAX_RATIO || !next.is_valid() || !keeps(model, &next) {
+        if ratio > MAX_RATIO || !next.is_valid() || !keeps(&next) {
             continue;
         }
         notes.push(format!(
@@ -188,7 +182,7 @@ mod tests {
         ];
         let mut m = model(&r, &modes);
         let before = m.clone();
-        let notes = rank_one_residues(&mut m, (30.0, 2500.0), |_, _| true);
+        let notes = rank_one_residues(&mut m, (30.0, 2500.0), |_| true);
         assert_eq!(notes.len(), 1, "{notes:?}");
         let yy = m.channel_index(Channel::new(Axis::Y, Axis::Y)).unwrap();
         let xx = m.channel_index(Channel::new(Axis::X, Axis::X)).unwrap();
@@ -203,7 +197,7 @@ mod tests {
         }
         // and nothing when the data refuse it
         let mut m = before.clone();
-        assert!(rank_one_residues(&mut m, (30.0, 2500.0), |_, _| false).is_empty());
+        assert!(rank_one_residues(&mut m, (30.0, 2500.0), |_| false).is_empty());
         assert_eq!(m, before);
     }
 }
