@@ -179,6 +179,15 @@ fn eighteen_pose_modal_campaign_twin_fits_the_truth_everywhere() {
     assert!(wrong.is_empty(), "{wrong:#?}");
 }
 
+/// Oblique modes (their cross channels carry a response, so the directions share their
+/// poles and every isolated mode's residues are made rank one): the worst measured pose
+/// at 99.5 %, the target for data of this kind (seeds 31, 32: 99.93 / 99.85 %).
+#[test]
+fn oblique_modal_campaign_twin_fits_the_truth_everywhere() {
+    let wrong = fits_everywhere(&[31, 32], true, 99.5);
+    assert!(wrong.is_empty(), "{wrong:#?}");
+}
+
 /// Scan: `MTWIN_SCAN_SEEDS=31-40 cargo test --release --test cli modal_campaign::scan --
 /// --ignored --nocapture` prints every seed's worst measured and unmeasured fit of a
 /// machine with oblique modes.
