@@ -25,9 +25,9 @@ const MAX_ZETA: f64 = 0.2;
 /// two modes' shapes (a pole that merged an x and a y mode): never projected.
 pub const MAX_RATIO: f64 = 0.1;
 
-/// The hammered directions whose channels between them are all in `model` and carry a
-/// response (none held at zero), with each channel's index: `idx[o][i]`.
-fn collocated_block(model: &ModalModel) -> Option<(Vec<Axis>, Vec<Vec<usize>>)> {
+/// The channels between the hammered directions, when all are in `model` and carry a
+/// response (none held at zero): `idx[o][i]`, directions in axis order.
+fn collocated_block(model: &ModalModel) -> Option<Vec<Vec<usize>>> {
     let mut inputs: Vec<Axis> = Vec::new();
     for c in &model.channels {
         if !inputs.contains(&c.channel.input) {
@@ -54,7 +54,7 @@ fn collocated_block(model: &ModalModel) -> Option<(Vec<Axis>, Vec<Vec<usize>>)> 
         }
         idx.push(row);
     }
-    Some((inputs, idx))
+    Some(idx)
 }
 
 /// Mode `k` of `model` is isolated from every other mode ([`ISOLATION_WIDTHS`]), inside
@@ -62,7 +62,7 @@ fn collocated_block(model: &ModalModel) -> Option<(Vec<Axis>, Vec<Vec<usize>>)> 
 fn isolated(model: &ModalModel, k: usize, band: (f64, f64)) -> bool {
     let m = &model.modes[k];
     let f = m.freq_hz();
-    if !(m.zeta <= MAX_ZETA && f >= band.0 && f <= band.1 && m.zeta < 1.0) {
+    if !(m.zeta <= MAX_ZETA && f >= band.0 && f <= band.1) {
         return false;
     }
     model.modes.iter().enumerate().all(|(j, o)| {
@@ -105,7 +105,7 @@ pub(crate) fn rank_one_residues(
     band: (f64, f64),
     keeps: impl Fn(&ModalModel) -> bool,
 ) -> Vec<String> {
-    let Some((_, idx)) = collocated_block(model) else {
+    let Some(idx) = collocated_block(model) else {
         return Vec::new();
     };
     let mut notes = Vec::new();
@@ -113,7 +113,7 @@ pub(crate) fn rank_one_residues(
         if !isolated(model, k, band) {
             continue;
         }
-        let Some((nums, ratio)) = rank_one(model, k, &idx) else {
+        let Some((nums, ratio)) = rank_one(model, k, &idx).filter(|(_, r)| *r <= MAX_RATIO) else {
             continue;
         };
         let mut next = model.clone();
@@ -123,7 +123,7 @@ pub(crate) fn rank_one_residues(
                 next.channels[idx[o][i]].num[k] = nums[o * n + i];
             }
         }
-        if ratio > MAX_RATIO || !next.is_valid() || !keeps(&next) {
+        if !next.is_valid() || !keeps(&next) {
             continue;
         }
         notes.push(format!(
