@@ -598,29 +598,29 @@ pub fn identify_campaign(
         return Err(Error::BadInput("no data files given".into()));
     }
     let groups = group_by_pose(records, opts.pose_tol_m);
-    let measured: Vec<MeasuredFrf> = groups
-        .par_iter()
-        .map(|g| {
-            let recs: Vec<TimeSeries> = g.records.iter().map(|&i| records[i].clone()).collect();
-            let mut est = estimate_frf(&recs, &opts.frf)?;
-            // the sensor's mass loading removed where the records state it and the
-            // caller asks for it (mass_loading; in the frequency domain: the impact
-            // estimate's force window would cut a force f − m·a corrected in time)
-            if let Some(m) = crate::mass_loading::common_sensor_mass_kg(&recs)
-                .filter(|_| crate::mass_loading::enabled())
-            {
-                crate::mass_loading::unload_frf(
-                    &mut est.frf,
-                    m,
-                    est.exp_window_sigma.unwrap_or(0.0),
-                );
-                est.warnings.push(format!(
-                    "mass loading removed: the records state a sensor mass of {:.1} g at the \
-                     tool (sensor_mass={m}); the twin is of the structure without it",
-                    m * 1e3
-                ));
-            }
-            Ok(MeasuredFrf {
+    let estimate = |g: &PoseGroup,
+                    sep: Option<&crate::spectra::HitSeparation>|
+     -> Result<(MeasuredFrf, Option<f64>)> {
+        let recs: Vec<TimeSeries> = g.records.iter().map(|&i| records[i].clone()).collect();
+        let mut frf_opts = opts.frf.clone();
+        frf_opts.impact.separation = sep.cloned();
+        let mut est = estimate_frf(&recs, &frf_opts)?;
+        // the sensor's mass loading removed where the records state it and the
+        // caller asks for it (mass_loading; in the frequency domain: the impact
+        // estimate's force window would cut a force f − m·a corrected in time)
+        if let Some(m) = crate::mass_loading::common_sensor_mass_kg(&recs)
+            .filter(|_| crate::mass_loading::enabled())
+        {
+            crate::mass_loading::unload_frf(&mut est.frf, m, est.exp_window_sigma.unwrap_or(0.0));
+            est.warnings.push(format!(
+                "mass loading removed: the records state a sensor mass of {:.1} g at the \
+                 tool (sensor_mass={m}); the twin is of the structure without it",
+                m * 1e3
+            ));
+        }
+        let hit_record_s = est.hit_record_s;
+        Ok((
+            MeasuredFrf {
                 facts: EstimateFacts {
                     excitation_band_hz: est.excitation_band_hz,
                     coherence_dof: est.coherence_dof,
@@ -641,10 +641,47 @@ pub fn identify_campaign(
                 exp_window_sigma: est.exp_window_sigma,
                 sources: recs.iter().map(|r| r.source.clone()).collect(),
                 warnings: est.warnings,
-            })
-        })
+            },
+            hit_record_s,
+        ))
+    };
+    let first: Vec<(MeasuredFrf, Option<f64>)> = groups
+        .par_iter()
+        .map(|g| estimate(g, None))
         .collect::<Result<_>>()?;
-    let mut res = identify_frfs(measured, opts, progress)?;
+    let record_s: Vec<Option<f64>> = first.iter().map(|m| m.1).collect();
+    let measured: Vec<MeasuredFrf> = first.into_iter().map(|m| m.0).collect();
+    let mut res = identify_frfs(measured.clone(), opts, progress)?;
+    // hits that ring into the next (a mode the data see keeps more than RINGING_LEVEL of
+    // its amplitude when the next hit comes): the poses estimated again with each hit's
+    // response separated from the others' over the first fit's poles, and the campaign
+    // identified again (a second round was measured to change nothing: the first fit's
+    // poles are right, its residues are what the ringing biases)
+    let ringing: Vec<(usize, crate::spectra::HitSeparation, String)> = groups
+        .iter()
+        .enumerate()
+        .filter_map(|(i, g)| {
+            let t = record_s[i]?;
+            let pm = res
+                .twin
+                .poses
+                .iter()
+                .find(|p| (0..3).all(|k| (p.pose[k] - g.pose[k]).abs() <= opts.pose_tol_m))?;
+            ringing_modes(&pm.model, &pm.frf, pm.band_hz, t).map(|(sep, why)| (i, sep, why))
+        })
+        .collect();
+    if !ringing.is_empty() {
+        let again: Vec<(usize, MeasuredFrf, String)> = ringing
+            .par_iter()
+            .map(|(i, sep, why)| Ok((*i, estimate(&groups[*i], Some(sep))?.0, why.clone())))
+            .collect::<Result<_>>()?;
+        let mut measured = measured;
+        for (i, mut m, why) in again {
+            m.facts.method = format!("{}; {why}", m.facts.method);
+            measured[i] = m;
+        }
+        res = identify_frfs(measured, opts, progress)?;
+    }
     if let Some(h) = res.twin.history.last_mut() {
         h.summary = format!(
             "a-priori twin from {} at {}",
@@ -653,6 +690,78 @@ pub fn identify_campaign(
         );
     }
     Ok(res)
+}
+
+/// The poles to separate hits with when a mode of `model` inside `band` keeps more
+/// than [`crate::spectra::RINGING_LEVEL`] of its amplitude after `record_s` and the
+/// measured `frf` sees it clearly (a direct channel's coherence, smoothed over 1/6
+/// octave, at least [`crate::plan::MAX_TRUST_COHERENCE`] at its frequency: where noise
+/// hides a mode, its decay cannot be told from the noise either), with the evidence
+/// (every stable mode's pole: the free decays are fitted over all of them); `None`
+/// otherwise.
+fn ringing_modes(
+    model: &ModalModel,
+    frf: &Frf,
+    band: [f64; 2],
+    record_s: f64,
+) -> Option<(crate::spectra::HitSeparation, String)> {
+    let stable: Vec<&crate::model::Mode> = model
+        .modes
+        .iter()
+        .filter(|m| m.wn > 0.0 && m.zeta > 0.0 && m.zeta < 1.0)
+        .collect();
+    let clear: Vec<Vec<f64>> = frf
+        .channels
+        .iter()
+        .filter(|c| c.channel.input == c.channel.output)
+        .filter_map(|c| c.coherence.as_ref())
+        .map(|g| crate::plan::smooth_octave(&frf.freqs_hz, g, 1.0 / 12.0))
+        .collect();
+    let seen = |f: f64| {
+        let k = frf
+            .freqs_hz
+            .iter()
+            .position(|&x| x >= f)
+            .unwrap_or(frf.freqs_hz.len().saturating_sub(1));
+        clear.iter().any(|g| {
+            g.get(k)
+                .is_some_and(|&v| v >= crate::plan::MAX_TRUST_COHERENCE)
+        })
+    };
+    let continued: Vec<bool> = stable
+        .iter()
+        .map(|m| {
+            (band[0]..=band[1]).contains(&m.freq_hz())
+                && seen(m.freq_hz())
+                && (-m.zeta * m.wn * record_s).exp() > crate::spectra::RINGING_LEVEL
+        })
+        .collect();
+    let ringing: Vec<String> = stable
+        .iter()
+        .zip(&continued)
+        .filter(|(_, &c)| c)
+        .map(|(m, _)| {
+            format!(
+                "{:.0} Hz keeps {:.1} %",
+                m.freq_hz(),
+                100.0 * (-m.zeta * m.wn * record_s).exp()
+            )
+        })
+        .collect();
+    if ringing.is_empty() {
+        return None;
+    }
+    Some((
+        crate::spectra::HitSeparation {
+            poles: stable.iter().map(|m| m.pole()).collect(),
+            continued,
+        },
+        format!(
+            "hits ring into the next ({} after the {:.3} s between hits): each hit's response separated from the others' free decays (over the poles of a first fit) and identified again",
+            ringing.join(", "),
+            record_s
+        ),
+    ))
 }
 
 /// Identifies a twin from FRFs already measured (e.g. read from UFF dataset 58 or an FRF

@@ -132,6 +132,11 @@ pub struct ImpactOptions {
     pub end_level: f64,
     /// Exponential window decay σ [1/s]: `None` = automatic, `Some(0.0)` = never.
     pub exp_window_sigma: Option<f64>,
+    /// Given when hits ring into the next: each hit's record then loses the free decay
+    /// of the hits before it and gains its own decay past the next hit, both fitted over
+    /// a first fit's poles to the record's own free decays (`spectra/ringing.rs`).
+    /// `None` (the default): records as measured.
+    pub separation: Option<HitSeparation>,
 }
 
 impl Default for ImpactOptions {
@@ -143,6 +148,7 @@ impl Default for ImpactOptions {
             double_hit_fraction: 0.1,
             end_level: 0.01,
             exp_window_sigma: None,
+            separation: None,
         }
     }
 }
@@ -199,6 +205,9 @@ pub struct FrfEstimate {
     pub method: String,
     /// Frequency resolution (Hz).
     pub df_hz: f64,
+    /// Impacts: the length [s] of each hit's record (the DFT length), the time a hit's
+    /// response has to decay before the next one. `None` for other excitations.
+    pub hit_record_s: Option<f64>,
     /// Band `(lo, hi)` in Hz where the force auto-spectrum is within 20 dB of its peak
     /// (the contiguous range around the peak; intersection over the input groups): the
     /// lines outside it are poorly excited. `None` when undefined (no force).
@@ -1673,6 +1682,7 @@ fn assemble(
         exp_window_sigma: sigma,
         method,
         df_hz: df,
+        hit_record_s: None,
         excitation_band_hz,
         coherence_dof: None,
     })
@@ -2356,6 +2366,8 @@ fn chirp(records: &[TimeSeries], infos: &[RecordInfo], ctx: &mut Ctx) -> Result<
 mod half;
 mod impact;
 pub mod operating;
+mod ringing;
+pub use ringing::{HitSeparation, RINGING_LEVEL};
 mod stream;
 pub use stream::{estimate_frf_streamed, excitation_of_scan};
 

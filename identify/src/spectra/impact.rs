@@ -1,6 +1,7 @@
 //! Impact tests: hit detection, double-hit and overload checks, force and exponential
 //! windows, H1 over the hits (see the parent module's docs for the rules).
 
+use super::ringing;
 use super::*;
 
 /// One detected hit, as a record window of the source record.
@@ -43,9 +44,12 @@ pub(super) fn estimate(
     let mut hits: Vec<Hit> = Vec::new();
     let mut doubles: Vec<(Hit, String, String, usize)> = Vec::new();
     let mut n_detected = 0;
+    // every pulse of each record (used or not): the hits a record's free decays follow
+    let mut pulses: Vec<Vec<(usize, usize)>> = vec![Vec::new(); records.len()];
     for (r, (rec, info)) in records.iter().zip(infos).enumerate() {
         let found = detect(rec, r, info.strongest, io, ctx.dt);
         n_detected += found.len();
+        pulses[r] = found.iter().map(|h| (h.pulse_start, h.pulse_end)).collect();
         if found.is_empty() {
             ctx.dropped
                 .push(format!("{}: no hit found in the force", rec.source));
@@ -191,8 +195,13 @@ pub(super) fn estimate(
     }
     for ((r, a), (count, pct)) in unsettled {
         ctx.warnings.push(format!(
-            "{}: response {a} is not at rest before {count} of its hits (up to {pct:.0} % of the response peak): leave more time between hits, or the channel is mostly noise",
-            records[r].source
+            "{}: response {a} is not at rest before {count} of its hits (up to {pct:.0} % of the response peak): {}",
+            records[r].source,
+            if io.separation.is_none() {
+                "leave more time between hits, or the channel is mostly noise"
+            } else {
+                "each hit's response is separated from the earlier hits' free decays; more time between hits still makes a cleaner test"
+            }
         ));
     }
     let sigma = io.exp_window_sigma.unwrap_or(sigma_auto).max(0.0);
@@ -232,9 +241,15 @@ pub(super) fn estimate(
             }
             dft.run_into(&mut sp.fs[0], None)?;
             for (o, &a) in outputs.iter().enumerate() {
-                let y = &rec.response(a).unwrap_or(&[])[h.start..h.start + avail];
-                for (i, b) in dft.buf.iter_mut().enumerate() {
-                    *b = if i < avail { y[i] * ewin[i] } else { 0.0 };
+                let y = rec.response(a).unwrap_or(&[]);
+                if io.separation.is_none() {
+                    let y = &y[h.start..h.start + avail];
+                    for (i, b) in dft.buf.iter_mut().enumerate() {
+                        *b = if i < avail { y[i] * ewin[i] } else { 0.0 };
+                    }
+                } else if let Some(sep) = &io.separation {
+                    let z = separated(y, h, &pulses[h.record], sep, ctx.dt, n);
+                    fold(&z, &mut dft.buf, sigma, t_hit, ctx.dt);
                 }
                 dft.run_into(&mut sp.ys[o], conv.as_deref())?;
             }
@@ -245,16 +260,91 @@ pub(super) fn estimate(
     let df = 1.0 / (n as f64 * ctx.dt);
     let used: usize = accs.iter().map(|a| a.averages).sum();
     let method = format!(
-        "{:?}, impact: {} averaged, record {n} samples, force window{}, df {df:.4} Hz",
+        "{:?}, impact: {} averaged, record {n} samples, force window{}{}, df {df:.4} Hz",
         ctx.opts.estimator,
         crate::axis::count(used, "hit"),
+        match &io.separation {
+            None => String::new(),
+            Some(sep) => format!(
+                ", each hit's response separated from the others' (free decays over {} of a first fit)",
+                crate::axis::count(sep.poles.len(), "pole")
+            ),
+        },
         if sigma > 0.0 {
             format!(" + exponential window sigma {sigma:.3} 1/s (estimate = H(s + sigma))")
         } else {
             String::new()
         }
     );
-    assemble(accs, n, ctx, method, (sigma > 0.0).then_some(sigma))
+    let mut est = assemble(accs, n, ctx, method, (sigma > 0.0).then_some(sigma))?;
+    est.hit_record_s = Some(n as f64 * ctx.dt);
+    Ok(est)
+}
+
+/// Samples after a pulse's end before its response is a free decay (the pulse's own
+/// transient, an anti-alias filter's ringing), at least this many.
+const DECAY_GUARD: usize = 16;
+/// A continued decay is followed until every pole is down to this fraction.
+const TAIL_LEVEL: f64 = 1e-4;
+/// ... but over at most this many record lengths.
+const TAIL_RECORDS: usize = 32;
+
+/// Hit `h`'s response alone, from its record start: the record until the next hit minus
+/// the free decay of the hits before it (fitted between the previous pulse and this
+/// hit's pre-trigger), then continued past the next hit by its own free decay (fitted
+/// after its pulse). Longer than `n` where the decay lasts: [`fold`] wraps it.
+fn separated(
+    y: &[f64],
+    h: &Hit,
+    pulses: &[(usize, usize)],
+    sep: &HitSeparation,
+    dt: f64,
+    n: usize,
+) -> Vec<f64> {
+    let (poles, keep) = (&sep.poles, &sep.continued);
+    let width = (h.pulse_end - h.pulse_start).max(1);
+    let guard = (3 * width).max(DECAY_GUARD);
+    let pre = h.pulse_start - h.start;
+    let data = (y.len() - h.start).min(h.end - h.start);
+    let mut z = y[h.start..h.start + data].to_vec();
+    // the earlier hits' decay: fitted from the last pulse before this hit to a
+    // pre-trigger's length before the record (an anti-alias filter's pre-ringing of
+    // this hit stays out)
+    if let Some(&(_, prev_end)) = pulses.iter().rev().find(|p| p.1 <= h.pulse_start) {
+        let lo = prev_end + guard;
+        let hi = h.start.saturating_sub(pre);
+        if let Some(fd) = ringing::FreeDecay::fit(y, lo, hi, poles, keep, dt) {
+            fd.add_to(h.start, &mut z, -1.0);
+        }
+    }
+    // this hit's own decay past the next hit (or the record end)
+    let after = h.pulse_end - h.start + guard;
+    let ringing_poles: Vec<Complex64> = poles
+        .iter()
+        .zip(keep)
+        .filter(|(_, &k)| k)
+        .map(|(p, _)| *p)
+        .collect();
+    let tail = ringing::decay_samples(&ringing_poles, dt, TAIL_LEVEL, TAIL_RECORDS * n);
+    if tail > 0 && after < data {
+        if let Some(fd) = ringing::FreeDecay::fit(&z, after, data, poles, keep, dt) {
+            let mut ext = vec![0.0; tail];
+            fd.add_to(data, &mut ext, 1.0);
+            z.extend_from_slice(&ext);
+        }
+    }
+    z
+}
+
+/// Wraps `z` (from the record start) onto `buf` (length n) under the exponential window
+/// `e^{-σ (t - t_hit)}`: the DFT of the wrapped record is the transform of the whole
+/// decay at the DFT's lines.
+fn fold(z: &[f64], buf: &mut [f64], sigma: f64, t_hit: usize, dt: f64) {
+    let n = buf.len();
+    buf.iter_mut().for_each(|b| *b = 0.0);
+    for (i, v) in z.iter().enumerate() {
+        buf[i % n] += v * (-sigma * (i as f64 - t_hit as f64) * dt).exp();
+    }
 }
 
 /// Finds the hits of one record.
