@@ -289,9 +289,9 @@ const TAIL_LEVEL: f64 = 1e-4;
 /// ... but over at most this many record lengths.
 const TAIL_RECORDS: usize = 32;
 
-/// Hit `h`'s response alone, from its record start: the record until the next hit minus
-/// the free decay of the hits before it (fitted between the previous pulse and this
-/// hit's pre-trigger), then continued past the next hit by its own free decay (fitted
+/// Hit `h`'s response alone, from its record start: its record (n samples) minus the
+/// free decay of the hits before it (fitted between the previous pulse and this hit's
+/// pre-trigger), then continued past the record's end by its own free decay (fitted
 /// after its pulse). Longer than `n` where the decay lasts: [`fold`] wraps it.
 fn separated(
     y: &[f64],
@@ -305,7 +305,9 @@ fn separated(
     let width = (h.pulse_end - h.pulse_start).max(1);
     let guard = (3 * width).max(DECAY_GUARD);
     let pre = h.pulse_start - h.start;
-    let data = (y.len() - h.start).min(h.end - h.start);
+    // the record as the plain estimate takes it (n samples at most: data after that,
+    // wrapped, would also carry what the force window cut, e.g. a small rebound)
+    let data = (y.len() - h.start).min(h.end - h.start).min(n);
     let mut z = y[h.start..h.start + data].to_vec();
     // the earlier hits' decay: fitted from the last pulse before this hit to a
     // pre-trigger's length before the record (an anti-alias filter's pre-ringing of
