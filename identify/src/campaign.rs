@@ -37,6 +37,11 @@ pub struct CampaignOptions {
     /// (channel fits in the band). Coherence weighting is robust on real impact data with
     /// model error; the ML weighting recovers weak modes far below the largest peak.
     pub try_ml_weighting: bool,
+    /// Impact tests whose hits ring into the next (a mode the data see keeps more than
+    /// [`crate::spectra::RINGING_LEVEL`] when the next hit comes): estimate again with
+    /// each hit's response separated from the others' ([`crate::spectra::HitSeparation`])
+    /// and identify again. Default on.
+    pub separate_ringing_hits: bool,
 }
 
 impl Default for CampaignOptions {
@@ -47,6 +52,7 @@ impl Default for CampaignOptions {
             pose_tol_m: 1e-3,
             name: "machine".into(),
             try_ml_weighting: true,
+            separate_ringing_hits: true,
         }
     }
 }
@@ -660,6 +666,7 @@ pub fn identify_campaign(
     let ringing: Vec<(usize, crate::spectra::HitSeparation, String)> = groups
         .iter()
         .enumerate()
+        .filter(|_| opts.separate_ringing_hits)
         .filter_map(|(i, g)| {
             let t = record_s[i]?;
             let pm = res

@@ -304,6 +304,7 @@ fn identify_twin<'py>(
         pose_tol_m: pose_tol,
         name: name.to_string(),
         try_ml_weighting: weighting == "auto",
+        ..CampaignOptions::default()
     };
     let mut warnings = Vec::new();
     let series = self::records(py, records, &mut warnings)?;

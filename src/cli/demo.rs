@@ -169,6 +169,7 @@ impl Demo<'_> {
                 excitation: "auto".into(),
                 pose_tol: 1e-3,
                 weighting: "auto".into(),
+                ringing_hits: "separate".into(),
                 report: Some(self.dir.join("identify.html")),
                 frf_plot: crate::report::identify::FrfView::MagPhase,
                 name: "demo machine".into(),

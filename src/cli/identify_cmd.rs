@@ -45,6 +45,11 @@ pub struct Args {
     /// or mobility (the coherence weighting of receptance × frequency).
     #[arg(long, default_value = "auto", value_parser = ["auto", "coherence", "ml", "balanced", "mobility"])]
     pub weighting: String,
+    /// Impact tests whose hits ring into the next: `separate` (default) takes each hit's
+    /// response apart from the earlier hits' free decays over a first fit's poles and
+    /// identifies again; `as-measured` keeps the records as they are.
+    #[arg(long, default_value = "separate", value_parser = ["separate", "as-measured"])]
+    pub ringing_hits: String,
     /// Also write an HTML report (FRFs, coherence, stabilization diagram, modes across
     /// the workspace) here (docs/reports.md).
     #[arg(long)]
@@ -97,6 +102,7 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
 
         name: a.name.clone(),
         try_ml_weighting: a.weighting == "auto",
+        separate_ringing_hits: a.ringing_hits == "separate",
     };
     let bar = (!out.quiet && !out.json).then(|| {
         let b = indicatif::ProgressBar::new(0);
