@@ -205,7 +205,7 @@ pub struct FrfEstimate {
     pub method: String,
     /// Frequency resolution (Hz).
     pub df_hz: f64,
-    /// Impacts: the length [s] of each hit's record (the DFT length), the time a hit's
+    /// Impacts: the length \[s\] of each hit's record (the DFT length), the time a hit's
     /// response has to decay before the next one. `None` for other excitations.
     pub hit_record_s: Option<f64>,
     /// Band `(lo, hi)` in Hz where the force auto-spectrum is within 20 dB of its peak
