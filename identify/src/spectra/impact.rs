@@ -242,14 +242,17 @@ pub(super) fn estimate(
             dft.run_into(&mut sp.fs[0], None)?;
             for (o, &a) in outputs.iter().enumerate() {
                 let y = rec.response(a).unwrap_or(&[]);
-                if io.separation.is_none() {
-                    let y = &y[h.start..h.start + avail];
-                    for (i, b) in dft.buf.iter_mut().enumerate() {
-                        *b = if i < avail { y[i] * ewin[i] } else { 0.0 };
+                match &io.separation {
+                    None => {
+                        let y = &y[h.start..h.start + avail];
+                        for (i, b) in dft.buf.iter_mut().enumerate() {
+                            *b = if i < avail { y[i] * ewin[i] } else { 0.0 };
+                        }
                     }
-                } else if let Some(sep) = &io.separation {
-                    let z = separated(y, h, &pulses[h.record], sep, ctx.dt, n);
-                    fold(&z, &mut dft.buf, sigma, t_hit, ctx.dt);
+                    Some(sep) => {
+                        let z = separated(y, h, &pulses[h.record], sep, ctx.dt, n);
+                        fold(&z, &mut dft.buf, sigma, t_hit, ctx.dt);
+                    }
                 }
                 dft.run_into(&mut sp.ys[o], conv.as_deref())?;
             }
@@ -319,7 +322,7 @@ fn separated(
             fd.add_to(h.start, &mut z, -1.0);
         }
     }
-    // this hit's own decay past the next hit (or the record end)
+    // this hit's own decay past its record's end
     let after = h.pulse_end - h.start + guard;
     let ringing_poles: Vec<Complex64> = poles
         .iter()
