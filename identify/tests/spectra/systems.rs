@@ -134,6 +134,15 @@ fn single_chirp_dft_ratio_is_unbiased() {
     assert!(e_an < 0.015, "{e_an}");
 }
 
+/// `hits` hit times about 0.3 s apart (jittered by up to 20 ms) and forces of 50-100 N.
+fn draw_hits(noise: &mut Noise, hits: usize) -> (Vec<f64>, Vec<f64>) {
+    let times: Vec<f64> = (0..hits)
+        .map(|h| 0.01 + 0.3 * h as f64 + noise.uniform(0.0, 0.02))
+        .collect();
+    let amps: Vec<f64> = (0..hits).map(|_| noise.uniform(50.0, 100.0)).collect();
+    (times, amps)
+}
+
 /// Impact test on a 2-DOF system: `hits` half-sine pulses 0.3 s apart.
 fn impact_test(
     seed: u64,
@@ -145,10 +154,7 @@ fn impact_test(
     let sys = [Sdof::new(300.0, 0.02, 2e7), Sdof::new(900.0, 0.015, 5e7)];
     let n = (0.3 * hits as f64 * fs) as usize;
     let mut noise = Noise::new(seed);
-    let times: Vec<f64> = (0..hits)
-        .map(|h| 0.01 + 0.3 * h as f64 + noise.uniform(0.0, 0.02))
-        .collect();
-    let amps: Vec<f64> = (0..hits).map(|_| noise.uniform(50.0, 100.0)).collect();
+    let (times, amps) = draw_hits(&mut noise, hits);
     let f_true = pulses(n, dt, &times, &amps, 3e-4);
     let (_, mut a) = simulate(&sys, &f_true, dt);
     let mut f = f_true.clone();
@@ -527,10 +533,7 @@ fn hits_that_ring_into_the_next_are_separated() {
     let hits = 5;
     let n = (0.3 * hits as f64 * fs) as usize;
     let mut noise = Noise::new(11);
-    let times: Vec<f64> = (0..hits)
-        .map(|h| 0.01 + 0.3 * h as f64 + noise.uniform(0.0, 0.02))
-        .collect();
-    let amps: Vec<f64> = (0..hits).map(|_| noise.uniform(50.0, 100.0)).collect();
+    let (times, amps) = draw_hits(&mut noise, hits);
     let f_true = pulses(n, dt, &times, &amps, 5e-4);
     let (_, mut a) = simulate(&sys, &f_true, dt);
     let amax = a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
