@@ -735,25 +735,22 @@ fn ringing_modes(
                 .is_some_and(|&v| v >= crate::plan::MAX_TRUST_COHERENCE)
         })
     };
-    let continued: Vec<bool> = stable
+    // what each mode keeps of its amplitude when the next hit comes, where it rings
+    let left: Vec<Option<f64>> = stable
         .iter()
         .map(|m| {
-            (band[0]..=band[1]).contains(&m.freq_hz())
+            let left = (-m.zeta * m.wn * record_s).exp();
+            ((band[0]..=band[1]).contains(&m.freq_hz())
                 && seen(m.freq_hz())
-                && (-m.zeta * m.wn * record_s).exp() > crate::spectra::RINGING_LEVEL
+                && left > crate::spectra::RINGING_LEVEL)
+                .then_some(left)
         })
         .collect();
+    let continued: Vec<bool> = left.iter().map(Option::is_some).collect();
     let ringing: Vec<String> = stable
         .iter()
-        .zip(&continued)
-        .filter(|(_, &c)| c)
-        .map(|(m, _)| {
-            format!(
-                "{:.0} Hz keeps {:.1} %",
-                m.freq_hz(),
-                100.0 * (-m.zeta * m.wn * record_s).exp()
-            )
-        })
+        .zip(&left)
+        .filter_map(|(m, l)| l.map(|l| format!("{:.0} Hz keeps {:.1} %", m.freq_hz(), 100.0 * l)))
         .collect();
     if ringing.is_empty() {
         return None;
