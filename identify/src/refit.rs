@@ -308,13 +308,42 @@ pub fn default_nfft(ts: &TimeSeries, model: &ModalModel) -> usize {
     nfft.max(64)
 }
 
-/// Lines mtwin's modal update uses: every line whose coherence reaches the limit (the
-/// cross-spectral H1 is valid wherever the coherence is high, whatever the PSD), thinned
-/// to at most ~4000 lines.
-fn coherent_lines(sp: &OperatingSpectra, opts: &RefitOptions) -> Vec<usize> {
+/// The response axes an update can learn from: those the twin models (it has a channel
+/// with that output) whose response is coherent with the forces (coherence at the limit)
+/// on at least a tenth as many lines as the most coherent one's, and on 3 at least. A
+/// response that carries only noise (a triaxial sensor's axis the modes do not move, a
+/// cable that fell off) says nothing about the modes and must not veto every line.
+fn informative_outputs(
+    sp: &OperatingSpectra,
+    model: &ModalModel,
+    opts: &RefitOptions,
+) -> Vec<Axis> {
+    let counts: Vec<(Axis, usize)> = sp
+        .coherence
+        .iter()
+        .filter(|(a, _)| model.channels.iter().any(|c| c.channel.output == *a))
+        .map(|(a, g)| (*a, g.iter().filter(|&&v| v >= opts.min_coherence).count()))
+        .collect();
+    let best = counts.iter().map(|c| c.1).max().unwrap_or(0);
+    counts
+        .into_iter()
+        .filter(|&(_, n)| n >= 3 && 10 * n >= best)
+        .map(|(a, _)| a)
+        .collect()
+}
+
+/// Lines mtwin's modal update uses: every line whose coherence reaches the limit in each
+/// of the `outputs` (the cross-spectral H1 is valid wherever the coherence is high,
+/// whatever the PSD), thinned to at most ~4000 lines.
+fn coherent_lines(sp: &OperatingSpectra, outputs: &[Axis], opts: &RefitOptions) -> Vec<usize> {
     let n = sp.freqs_hz.len();
     let ok: Vec<usize> = (1..n)
-        .filter(|&l| sp.coherence.iter().all(|(_, g)| g[l] >= opts.min_coherence))
+        .filter(|&l| {
+            sp.coherence
+                .iter()
+                .filter(|(a, _)| outputs.contains(a))
+                .all(|(_, g)| g[l] >= opts.min_coherence)
+        })
         .collect();
     let step = ok.len().div_ceil(4000).max(1);
     ok.into_iter().step_by(step).collect()
@@ -725,7 +754,12 @@ struct Halves {
     lines: [Vec<usize>; 2],
 }
 
-fn split_halves(records: &[TimeSeries], nfft: usize, opts: &RefitOptions) -> Option<Halves> {
+fn split_halves(
+    records: &[TimeSeries],
+    nfft: usize,
+    outputs: &[Axis],
+    opts: &RefitOptions,
+) -> Option<Halves> {
     let half = |second: bool| -> Vec<TimeSeries> {
         records
             .iter()
@@ -748,7 +782,10 @@ fn split_halves(records: &[TimeSeries], nfft: usize, opts: &RefitOptions) -> Opt
         let a = operating_spectra(&recs[0], seg).ok()?;
         let b = operating_spectra(&recs[1], seg).ok()?;
         if a.n_avg >= MIN_FOLD_AVERAGES && b.n_avg >= MIN_FOLD_AVERAGES {
-            let lines = [coherent_lines(&a, opts), coherent_lines(&b, opts)];
+            let lines = [
+                coherent_lines(&a, outputs, opts),
+                coherent_lines(&b, outputs, opts),
+            ];
             return Some(Halves {
                 spectra: [a, b],
                 lines,
@@ -984,6 +1021,16 @@ pub fn refit(
     if !(drifted || opts.force) {
         return Ok((twin.clone(), report));
     }
+    let used = informative_outputs(&sp, &old, opts);
+    for (a, _) in &sp.coherence {
+        if !used.contains(a) && old.channels.iter().any(|c| c.channel.output == *a) {
+            report.warnings.push(format!(
+                "response {a}: coherent with the forces (coherence >= {}) on too few lines \
+                 (noise only?): not used to update the modes",
+                opts.min_coherence
+            ));
+        }
+    }
     if lines.is_empty() {
         return Err(Error::BadInput(format!(
             "the twin has drifted (simulated response fit {drift_fit:.1} %) but no frequency line \
@@ -999,14 +1046,14 @@ pub fn refit(
         .unwrap_or(0);
     let (new, new_frf) = match opts.method {
         RefitMethod::Modal | RefitMethod::Time => {
-            let lines_c = coherent_lines(&sp, opts);
+            let lines_c = coherent_lines(&sp, &used, opts);
             report.lines_hz = lines_c.iter().map(|&l| sp.freqs_hz[l]).collect();
             // noise errors, then the previous model's discrepancy per channel on top
             let noise = operating_points(&sp, &lines_c, &old, None);
             let eps = discrepancy(&old, &noise);
             let pts = with_discrepancy(&old, &noise, &eps);
             let candidates = excited_modes(&old, &pts);
-            let halves = split_halves(records, nfft, opts);
+            let halves = split_halves(records, nfft, &used, opts);
             let folds = halves.as_ref().map(|h| {
                 [0, 1].map(|i| {
                     let noise = operating_points(&h.spectra[i], &h.lines[i], &old, None);

@@ -337,3 +337,121 @@ fn modal_campaign_twin_names_a_pose_dependence_and_its_rate() {
     }
     assert!(wrong.is_empty(), "{wrong:#?}");
 }
+
+/// The lifetime refit on a drawn machine, as the tryout's `worn_milling/` asks it: the
+/// campaign twin (defaults), then one mode at 150-1500 Hz loses 8-22 % of its stiffness
+/// and the worn machine is milled at the centre at three spindle speeds whose tooth
+/// passing lies at 0.75-1.05 of the worn mode (3 s each; tooth and spindle harmonics only,
+/// or with a broadband share of half the force's RMS); `mtwin refit` with defaults.
+/// Judged against the worn machine's analytic receptance at the centre, xx and yy
+/// 30-2500 Hz: what is wrong (worn mode not within 1 % of its new frequency, or a fit
+/// below `target`), with a line per seed on stderr.
+fn refits(seeds: &[u64], target: f64) -> Vec<String> {
+    let mut wrong = Vec::new();
+    for &seed in seeds {
+        let (machine, dir, twin, twin_path, _) = campaign_with(seed, true);
+        let mut rng = StdRng::seed_from_u64(seed + 1000);
+        let healthy = machine.at(CENTRE);
+        let worn_candidates: Vec<usize> = (0..healthy.len())
+            .filter(|&i| (150.0..1500.0).contains(&healthy[i].f0))
+            .collect();
+        let i = worn_candidates[rng.gen_range(0..worn_candidates.len())];
+        let sf = rng.gen_range(0.78..0.92);
+        let mut worn = healthy.clone();
+        worn[i].k *= sf;
+        worn[i].f0 *= f64::sqrt(sf);
+        let broadband = if rng.gen_bool(0.5) { 0.5 } else { 0.0 };
+        let data = dir.path().join("worn_milling");
+        std::fs::create_dir_all(&data).expect("folder");
+        let mut speeds = Vec::new();
+        for _ in 0..3 {
+            let rpm = (worn[i].f0 * rng.gen_range(0.75..1.05) * 60.0 / 3.0).round();
+            speeds.push(rpm);
+            let rec = crate::common::modal::milling(&worn, rpm, &[], broadband, &mut rng);
+            crate::common::modal::write_milling(
+                &data.join(format!("mill_{rpm:.0}.csv")),
+                rpm,
+                &rec,
+                CENTRE,
+            );
+        }
+        let out = dir.path().join("worn.json");
+        let o = mtwin(&["refit", "--twin", s(&twin_path), s(&data), "--out", s(&out)]);
+        if !o.status.success() {
+            wrong.push(format!("seed {seed}: refit failed: {}", stderr(&o)));
+            continue;
+        }
+        if let Some(keep) = std::env::var_os("MTWIN_SCAN_KEEP") {
+            let to = std::path::Path::new(&keep).join(format!("refit{seed}"));
+            std::fs::create_dir_all(&to).expect("keep folder");
+            for e in std::fs::read_dir(&data).expect("milling") {
+                let e = e.expect("entry");
+                std::fs::copy(e.path(), to.join(e.file_name())).expect("copy");
+            }
+            std::fs::copy(&twin_path, to.join("twin.json")).expect("copy");
+            std::fs::write(to.join("refit.txt"), stderr(&o)).expect("refit.txt");
+        }
+        let after = Twin::load(&out).expect("refitted twin loads");
+        let fit = |t: &Twin| -> [f64; 2] {
+            let model = t.model_at(CENTRE).expect("model");
+            [0usize, 1].map(|a| {
+                let ch = identify::axis::Channel {
+                    output: identify::axis::Axis::ALL[a],
+                    input: identify::axis::Axis::ALL[a],
+                };
+                let ci = model.channel_index(ch).expect("direct channel");
+                let (tr, e): (Vec<Complex64>, Vec<Complex64>) = (0..1300)
+                    .map(|k| 30.0 + k as f64 * (2500.0 - 30.0) / 1299.0)
+                    .map(|f| (receptance(&worn, f, a, a), model.eval_hz(ci, f)))
+                    .unzip();
+                identify::frf::fit_percent(&tr, &e)
+            })
+        };
+        let (b, a) = (fit(&twin), fit(&after));
+        // the refitted twin's mode nearest the worn one's healthy frequency
+        let m1 = after.model_at(CENTRE).expect("model");
+        let m0 = twin.model_at(CENTRE).expect("model");
+        let k = (0..m0.modes.len())
+            .min_by(|&p, &q| {
+                (m0.modes[p].freq_hz() - healthy[i].f0)
+                    .abs()
+                    .total_cmp(&(m0.modes[q].freq_hz() - healthy[i].f0).abs())
+            })
+            .expect("modes");
+        let f_new = m1.modes.get(k).map_or(f64::NAN, |m| m.freq_hz());
+        let f_err = (f_new / worn[i].f0 - 1.0) * 100.0;
+        eprintln!(
+            "seed {seed}: mode {:.1} Hz x{sf:.3} -> {:.1} Hz (refit {f_new:.1}, {f_err:+.2} %), \
+             {speeds:?} rpm, broadband {broadband}; vs worn truth xx {:.2} -> {:.2} %, yy {:.2} -> {:.2} %",
+            healthy[i].f0, worn[i].f0, b[0], a[0], b[1], a[1]
+        );
+        if f_err.abs() > 1.0 || a[0] < target || a[1] < target {
+            wrong.push(format!(
+                "seed {seed}: mode {:.1} -> {:.1} Hz, refit {f_new:.1}; xx {:.2} -> {:.2}, yy {:.2} -> {:.2}",
+                healthy[i].f0, worn[i].f0, b[0], a[0], b[1], a[1]
+            ));
+        }
+    }
+    wrong
+}
+
+/// Scan: `MTWIN_SCAN_SEEDS=61-70 cargo test --release --test cli modal_campaign::scan_refit
+/// -- --ignored --nocapture` prints every seed's refit from worn milling.
+#[test]
+#[ignore]
+fn scan_refit_from_worn_milling() {
+    let (a, b) = std::env::var("MTWIN_SCAN_SEEDS")
+        .ok()
+        .and_then(|v| {
+            let (a, b) = v.split_once('-')?;
+            Some((a.parse().ok()?, b.parse().ok()?))
+        })
+        .unwrap_or((61u64, 64u64));
+    let seeds: Vec<u64> = (a..=b).collect();
+    let wrong = refits(&seeds, 98.0);
+    eprintln!(
+        "{} of {} below target: {wrong:#?}",
+        wrong.len(),
+        seeds.len()
+    );
+}
