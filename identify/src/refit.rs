@@ -744,6 +744,154 @@ fn refinement_bounds(
         .collect()
 }
 
+/// Half-width of the in-time retune's frequency scan, as a factor ([`retune_in_time`]).
+const TIME_RETUNE_SPAN: f64 = 1.25;
+/// Steps of that scan (odd: the unchanged mode is one).
+const TIME_RETUNE_STEPS: usize = 41;
+/// Share of the output error's square a retune in time must remove on all the records,
+/// and on each half of them alone, to be taken.
+const TIME_RETUNE_MIN_GAIN: f64 = 0.5;
+
+/// When the Welch evidence validates no update: the twin has drifted, yet a periodic
+/// force (tooth and spindle harmonics only) leaves between its harmonics nothing but its
+/// own leakage, which moves every Welch point near a resonance to the harmonic's value.
+/// The records in time hold every harmonic exactly: each excited mode's frequency is
+/// scanned alone (±25 %, within its identity bounds; its numerators re-solved at each
+/// step) by the output error on the records, the mode whose best step removes at least
+/// [`TIME_RETUNE_MIN_GAIN`] of the error's square and moves it by at least its
+/// half-power half-width is taken when each half of the records alone points to the
+/// same step (±2) with the same gain, and then refined by output error within ±1 step.
+/// The refined model and the held-out note, or `None`.
+fn retune_in_time(
+    old: &ModalModel,
+    candidates: &[usize],
+    records: &[TimeSeries],
+    num_rel: &[f64],
+) -> Option<(crate::output_error::OeResult, String)> {
+    let ln_span = TIME_RETUNE_SPAN.ln();
+    let step = 2.0 * ln_span / (TIME_RETUNE_STEPS - 1) as f64;
+    let grid: Vec<f64> = (0..TIME_RETUNE_STEPS)
+        .map(|i| (-ln_span + step * i as f64).exp())
+        .collect();
+    let mid = TIME_RETUNE_STEPS / 2;
+    let halves: [Vec<TimeSeries>; 2] = [false, true].map(|second| {
+        records
+            .iter()
+            .map(|r| {
+                let h = r.len() / 2;
+                if second {
+                    crate::signal::slice(r, h, r.len())
+                } else {
+                    crate::signal::slice(r, 0, h)
+                }
+            })
+            .collect()
+    });
+    let debug = std::env::var_os("MTWIN_DEBUG_REFIT").is_some();
+    // per candidate: the scan's best step and gain (1 - (rms/rms0)^2) on `recs`
+    let scan = |k: usize, recs: &[TimeSeries]| -> Option<(usize, f64)> {
+        let id = ModeBounds::identity(old, k, &Prior::default());
+        let opts = oe_options(old, &[id], num_rel);
+        let r = crate::output_error::frequency_scan(old, k, recs, &opts, &grid).ok()?;
+        let lw = old.modes[k].wn.ln();
+        let (best, rb) = (0..grid.len())
+            .filter(|&i| {
+                let w = lw + grid[i].ln();
+                w >= id.ln_wn.0 && w <= id.ln_wn.1
+            })
+            .map(|i| (i, r[i]))
+            .min_by(|a, b| a.1.total_cmp(&b.1))?;
+        let r0 = r[mid];
+        (r0 > 0.0).then(|| (best, 1.0 - (rb / r0).powi(2)))
+    };
+    let mut top: Option<(usize, usize, f64)> = None;
+    for &k in candidates {
+        let Some((i, gain)) = scan(k, records) else {
+            continue;
+        };
+        if debug {
+            eprintln!(
+                "refit in time: mode {k} ({:.1} Hz) best x{:.4}, error² down {:.1} %",
+                old.modes[k].freq_hz(),
+                grid[i],
+                100.0 * gain
+            );
+        }
+        let on_edge = i == 0 || i + 1 == grid.len();
+        let moves = grid[i].ln().abs() >= old.modes[k].zeta;
+        if gain >= TIME_RETUNE_MIN_GAIN && !on_edge && moves && top.is_none_or(|t| gain > t.2) {
+            top = Some((k, i, gain));
+        }
+    }
+    let (k, i, gain) = top?;
+    // held out: each half alone wants the same step with the same gain
+    for h in &halves {
+        let (ih, gh) = scan(k, h)?;
+        if debug {
+            eprintln!(
+                "refit in time: mode {k} on a half: x{:.4}, error² down {:.1} %",
+                grid[ih],
+                100.0 * gh
+            );
+        }
+        if ih.abs_diff(i) > 2 || gh < TIME_RETUNE_MIN_GAIN {
+            return None;
+        }
+    }
+    let mut start = old.clone();
+    start.modes[k].wn *= grid[i];
+    let id = ModeBounds::identity(old, k, &Prior::default());
+    let lw = start.modes[k].wn.ln();
+    let bounds = [ModeBounds {
+        ln_wn: ((lw - step).max(id.ln_wn.0), (lw + step).min(id.ln_wn.1)),
+        ln_zeta: id.ln_zeta,
+    }];
+    let oe = crate::output_error::refine(&start, &[k], records, oe_options(old, &bounds, num_rel))
+        .ok()?;
+    let why = format!(
+        "in time, mode {} alone moved {:.1} -> {:.1} Hz removes \
+         {:.0} % of the output error's square, each half of the records alone pointing to \
+         the same; refined by output error",
+        k + 1,
+        old.modes[k].freq_hz(),
+        oe.model.modes[k].freq_hz(),
+        100.0 * gain
+    );
+    Some((oe, why))
+}
+
+/// How many times the output-error stage's trust region may move to where the
+/// refinement ended on its edge.
+const TRUST_REGION_MOVES: usize = 6;
+
+/// `bounds` (of the modes `free`) recentred on `model`'s modes with the same widths,
+/// within the identity bounds of `old`.
+fn recentred(
+    old: &ModalModel,
+    bounds: &[ModeBounds],
+    free: &[usize],
+    model: &ModalModel,
+) -> Vec<ModeBounds> {
+    free.iter()
+        .zip(bounds)
+        .map(|(&k, b)| {
+            let id = ModeBounds::identity(old, k, &Prior::default());
+            let m = model.modes[k];
+            let (lw, lz) = (m.wn.ln(), m.zeta.max(1e-6).ln());
+            let (dw, dz) = (
+                0.5 * (b.ln_wn.1 - b.ln_wn.0),
+                0.5 * (b.ln_zeta.1 - b.ln_zeta.0),
+            );
+            let cut =
+                |(a, b): (f64, f64), c: f64, d: f64| ((c - d).max(a).min(c), (c + d).min(b).max(c));
+            ModeBounds {
+                ln_wn: cut(id.ln_wn, lw, dw),
+                ln_zeta: cut(id.ln_zeta, lz, dz),
+            }
+        })
+        .collect()
+}
+
 /// The held-out split: every record's first halves and second halves, with their
 /// spectra and coherent lines. The halves' Welch segments are those of the whole when
 /// each half then gives at least [`MIN_FOLD_AVERAGES`] averages, else halved (twice at
@@ -1045,7 +1193,7 @@ pub fn refit(
         .min_by(|&a, &b| d2(&twin.poses[a].pose).total_cmp(&d2(&twin.poses[b].pose)))
         .unwrap_or(0);
     let (new, new_frf) = match opts.method {
-        RefitMethod::Modal | RefitMethod::Time => {
+        RefitMethod::Modal | RefitMethod::Time => 'arm: {
             let lines_c = coherent_lines(&sp, &used, opts);
             report.lines_hz = lines_c.iter().map(|&l| sp.freqs_hz[l]).collect();
             // noise errors, then the previous model's discrepancy per channel on top
@@ -1115,6 +1263,22 @@ pub fn refit(
             };
             held.refused_at_bound.sort_unstable();
             held.refused_at_bound.dedup();
+            let in_time = if res.is_none() && opts.method == RefitMethod::Time {
+                retune_in_time(&old, &held.candidates, records, &num_rel)
+            } else {
+                None
+            };
+            if let (None, Some((oe, why))) = (&res, in_time) {
+                held.note = format!(
+                    "no update from the Welch spectra validated (a periodic force leaves \
+                     between its harmonics only its leakage); {why}"
+                );
+                report.held_out = Some(held);
+                report.output_error = Some(oe.summary());
+                let prev = &twin.poses[near].frf;
+                let (frf, _) = intermediate_frf(prev, &old, &sp, &lines);
+                break 'arm (oe.model, frf);
+            }
             let Some(res) = res else {
                 held.note = match held.chi_before {
                     _ if held.candidates.is_empty() => "the data excite no mode of the twin \
@@ -1150,48 +1314,88 @@ pub fn refit(
                 // that ends on the region's edge wants to relocate a mode, not refine it,
                 // and is refused: the modal update stands, as when the stage cannot run
                 // (the report then has no `output_error`; the held-out note says why)
-                let bounds = refinement_bounds(&old, &res, &free, sp.df_hz);
-                match crate::output_error::refine(
-                    &res.model,
-                    &free,
-                    records,
-                    oe_options(&old, &bounds, &num_rel),
-                ) {
-                    Ok(oe) => {
-                        let edge: Vec<usize> = free
-                            .iter()
-                            .zip(&bounds)
-                            .filter(|(&k, b)| {
-                                let m = oe.model.modes[k];
-                                let z = m.zeta.max(1e-6).ln();
-                                b.wn_at_bound(m.wn.ln())
-                                    || z <= b.ln_zeta.0 + 1e-6
-                                    || z >= b.ln_zeta.1 - 1e-6
-                            })
-                            .map(|(&k, _)| k)
-                            .collect();
-                        if edge.is_empty() {
-                            report.output_error = Some(oe.summary());
-                        }
+                let mut bounds = refinement_bounds(&old, &res, &free, sp.df_hz);
+                let mut start = res.model.clone();
+                let mut moves = 0usize;
+                loop {
+                    let Ok(oe) = crate::output_error::refine(
+                        &start,
+                        &free,
+                        records,
+                        oe_options(&old, &bounds, &num_rel),
+                    ) else {
+                        break res.model;
+                    };
+                    let edge: Vec<usize> = free
+                        .iter()
+                        .zip(&bounds)
+                        .filter(|(&k, b)| {
+                            let m = oe.model.modes[k];
+                            let z = m.zeta.max(1e-6).ln();
+                            b.wn_at_bound(m.wn.ln())
+                                || z <= b.ln_zeta.0 + 1e-6
+                                || z >= b.ln_zeta.1 - 1e-6
+                        })
+                        .map(|(&k, _)| k)
+                        .collect();
+                    // on the edge because the Welch update stopped short (a periodic
+                    // force's leakage biases its points by more than their spread): the
+                    // region moves to where the refinement ended, as long as it moves
+                    // within the identity bounds, at most TRUST_REGION_MOVES times
+                    let moved = moves < TRUST_REGION_MOVES
+                        && !edge.is_empty()
+                        && edge.iter().all(|&k| {
+                            let id = ModeBounds::identity(&old, k, &Prior::default());
+                            let m = oe.model.modes[k];
+                            let z = m.zeta.max(1e-6).ln();
+                            !id.wn_at_bound(m.wn.ln())
+                                && z > id.ln_zeta.0 + 1e-6
+                                && z < id.ln_zeta.1 - 1e-6
+                        });
+                    if moved {
+                        bounds = recentred(&old, &bounds, &free, &oe.model);
+                        start = oe.model;
+                        moves += 1;
+                        continue;
+                    }
+                    if edge.is_empty() {
+                        report.output_error = Some(oe.summary());
+                    } else if let Some((oe, why)) =
+                        retune_in_time(&old, &candidates, records, &num_rel)
+                    {
+                        // the records in time do not confirm the Welch update (a periodic
+                        // force's leakage can point it to the wrong mode): one mode
+                        // retuned in time that explains them stands instead
+                        report.output_error = Some(oe.summary());
                         if let Some(h) = report.held_out.as_mut() {
-                            h.note += &if edge.is_empty() {
+                            h.note = format!(
+                                "the Welch update ({}) is not confirmed by output error in \
+                                 time (it ends on its trust region's edge); {why}",
+                                modes_named(&free)
+                            );
+                        }
+                        break oe.model;
+                    }
+                    if let Some(h) = report.held_out.as_mut() {
+                        h.note += &if edge.is_empty() {
+                            if moves == 0 {
                                 "; refined by output error within its trust region".to_string()
                             } else {
                                 format!(
-                                    "; the output-error refinement ends on its trust region's \
-                                     edge for {} (the records ask for more than a \
-                                     refinement): not used, the modal update stands",
-                                    modes_named(&edge)
+                                    "; refined by output error, its trust region moved {moves} \
+                                     time(s) along with it (the Welch update stopped short)"
                                 )
-                            };
-                        }
-                        if edge.is_empty() {
-                            oe.model
+                            }
                         } else {
-                            res.model
-                        }
+                            format!(
+                                "; the output-error refinement ends on its trust region's \
+                                 edge for {} (the records ask for more than a \
+                                 refinement): not used, the modal update stands",
+                                modes_named(&edge)
+                            )
+                        };
                     }
-                    Err(_) => res.model,
+                    break if edge.is_empty() { oe.model } else { res.model };
                 }
             } else {
                 res.model

@@ -127,6 +127,32 @@ impl Default for Prior {
 /// Physical range of a damping ratio a refit may give a structural mode.
 pub const ZETA_RANGE: (f64, f64) = (1e-4, 0.2);
 
+/// Shape likeness below which two modes cannot be mistaken for one another
+/// ([`shape_likeness`]).
+pub const LIKE_SHAPE: f64 = 0.5;
+
+/// How alike the shapes of modes `j` and `k` of `model` look in its channels, 0 to 1: the
+/// modal assurance criterion of their numerators' magnitudes at their own frequencies
+/// over all channels (an x mode and a y mode: 0; a mode turned 45° against an x mode:
+/// 0.25 in xx, xy, yx, yy; one channel only: 1).
+pub fn shape_likeness(model: &ModalModel, j: usize, k: usize) -> f64 {
+    let size = |m: usize| -> Vec<f64> {
+        let w = model.modes[m].wn;
+        model
+            .channels
+            .iter()
+            .map(|c| Complex64::new(c.num[m].b0, c.num[m].b1 * w).norm())
+            .collect()
+    };
+    let (a, b) = (size(j), size(k));
+    let ab: f64 = a.iter().zip(&b).map(|(x, y)| x * y).sum();
+    let (aa, bb): (f64, f64) = (a.iter().map(|x| x * x).sum(), b.iter().map(|y| y * y).sum());
+    if aa <= 0.0 || bb <= 0.0 {
+        return 1.0;
+    }
+    ab * ab / (aa * bb)
+}
+
 /// Bounds of one free mode's parameters (natural logarithms).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ModeBounds {
@@ -138,16 +164,19 @@ pub struct ModeBounds {
 
 impl ModeBounds {
     /// Identity bounds of mode `k` of `model`: the natural frequency stays between the
-    /// geometric midpoints to its neighbours in frequency (it can neither pass a
-    /// neighbour nor take its place; modes with real poles, ζ ≥ 1, are no resonances and
-    /// do not count) and within 3 prior widths of where it was; the damping ratio within
-    /// [`ZETA_RANGE`] and 3 prior widths. The starting point always lies inside.
+    /// geometric midpoints to its neighbours in frequency of a like shape (it can neither
+    /// pass such a neighbour nor take its place; modes with real poles, ζ ≥ 1, are no
+    /// resonances and do not count; a neighbour whose shape differs, [`shape_likeness`]
+    /// below [`LIKE_SHAPE`], cannot be confused with it and may be passed: a worn x mode
+    /// moving past a y mode) and within 3 prior widths of where it was; the damping ratio
+    /// within [`ZETA_RANGE`] and 3 prior widths. The starting point always lies inside.
     pub fn identity(model: &ModalModel, k: usize, prior: &Prior) -> ModeBounds {
         let m = model.modes[k];
         let lw = m.wn.ln();
         let (mut lo, mut hi) = (lw - 3.0 * prior.ln_wn, lw + 3.0 * prior.ln_wn);
         for (j, o) in model.modes.iter().enumerate() {
-            if j == k || o.zeta >= 1.0 || !(o.wn > 0.0) {
+            if j == k || o.zeta >= 1.0 || !(o.wn > 0.0) || shape_likeness(model, j, k) < LIKE_SHAPE
+            {
                 continue;
             }
             let mid = 0.5 * (lw + o.wn.ln());

@@ -1258,6 +1258,37 @@ pub fn refine(
     })
 }
 
+/// The output error of `start` on `records` with mode `k`'s natural frequency scaled by
+/// each of `factors` (damping ratio kept; the free mode's numerators re-solved at each,
+/// under `opts`' prior): the weighted RMS output error relative to the response RMS per
+/// factor, as [`OeResult::rel_rms_before`]. A coarse look at where the records want a
+/// mode before a local refinement ([`refine`]) from the best factor.
+pub fn frequency_scan(
+    start: &ModalModel,
+    k: usize,
+    records: &[TimeSeries],
+    opts: &OeOptions,
+    factors: &[f64],
+) -> Result<Vec<f64>> {
+    if records.is_empty() || k >= start.modes.len() {
+        return Err(Error::BadInput(
+            "frequency scan: no records or no such mode".into(),
+        ));
+    }
+    let (mut prob, theta, _, _) = setup(start, &[k], records, opts)?;
+    let (first, _) = prob.eval_with_parts(&theta);
+    prob.prior_scale = (first.data_ss / first.n_data.max(1) as f64).sqrt();
+    Ok(factors
+        .iter()
+        .map(|f| {
+            let mut t = theta.clone();
+            t[0] += f.ln();
+            let (e, _) = prob.eval_with_parts(&t);
+            (e.data_ss / e.n_data.max(1) as f64).sqrt()
+        })
+        .collect())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
