@@ -87,6 +87,9 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
             "no change needed"
         }
     ));
+    if let Some(d) = &rep.drift_in_time {
+        out.say(format!("  drift found in time: {d}"));
+    }
     for m in &rep.modes {
         out.say(format!(
             "  mode {}: {:.2} Hz -> {:.2} Hz, damping {:.2} % -> {:.2} %",
