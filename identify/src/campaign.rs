@@ -543,6 +543,23 @@ pub fn channel_fits(model: &ModalModel, frf: &Frf, band: (f64, f64)) -> Vec<Chan
     channel_fits_as(model, frf, &Bands::whole(band), 0, None)
 }
 
+/// The mean fit \[%\] of `model` (a model of pose `p`, or one changed from it) to the FRF
+/// that pose was identified from, over its direct channels in its band (the automatic
+/// exponential window's pole shift taken off first).
+pub fn direct_data_fit(p: &crate::twin::PoseModel, model: &ModalModel) -> f64 {
+    let mut w = model.clone();
+    if let Some(s) = p.frf_exp_window_sigma {
+        w.shift_poles(-s);
+    }
+    let fits = channel_fits(&w, &p.frf, (p.band_hz[0], p.band_hz[1]));
+    let d: Vec<f64> = fits
+        .iter()
+        .filter(|c| c.channel.output == c.channel.input && c.fit_pct.is_finite())
+        .map(|c| c.fit_pct)
+        .collect();
+    d.iter().sum::<f64>() / d.len().max(1) as f64
+}
+
 /// A measured FRF matrix at one pose: the input of [`identify_frfs`].
 #[derive(Debug, Clone)]
 pub struct MeasuredFrf {

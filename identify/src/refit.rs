@@ -881,22 +881,9 @@ fn nearest_pose(twin: &Twin, pose: [f64; 3]) -> usize {
 /// How many points worse the pose model of `p` fits its own identification FRF (the
 /// direct channels' mean, in its band) with the change from `old` to `new` applied.
 fn data_fit_drop(p: &crate::twin::PoseModel, old: &ModalModel, new: &ModalModel) -> f64 {
-    let mean_fit = |m: &ModalModel| -> f64 {
-        let mut w = m.clone();
-        if let Some(s) = p.frf_exp_window_sigma {
-            w.shift_poles(-s);
-        }
-        let fits = channel_fits(&w, &p.frf, (p.band_hz[0], p.band_hz[1]));
-        let d: Vec<f64> = fits
-            .iter()
-            .filter(|c| c.channel.output == c.channel.input && c.fit_pct.is_finite())
-            .map(|c| c.fit_pct)
-            .collect();
-        d.iter().sum::<f64>() / d.len().max(1) as f64
-    };
     let mut changed = p.model.clone();
     apply_change(&mut changed, old, new, 1.0);
-    mean_fit(&p.model) - mean_fit(&changed)
+    crate::campaign::direct_data_fit(p, &p.model) - crate::campaign::direct_data_fit(p, &changed)
 }
 
 /// How many times the output-error stage's trust region may move to where the
@@ -1250,10 +1237,7 @@ pub fn refit(
         )));
     }
     // nearest measured pose: its stored FRF is the "previous FRF" of the paper
-    let d2 = |p: &[f64; 3]| (0..3).map(|a| (p[a] - pose[a]).powi(2)).sum::<f64>();
-    let near = (0..twin.poses.len())
-        .min_by(|&a, &b| d2(&twin.poses[a].pose).total_cmp(&d2(&twin.poses[b].pose)))
-        .unwrap_or(0);
+    let near = nearest_pose(twin, pose);
     let (new, new_frf) = match opts.method {
         RefitMethod::Modal | RefitMethod::Time => 'arm: {
             let lines_c = coherent_lines(&sp, &used, opts);

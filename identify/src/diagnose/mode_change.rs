@@ -492,18 +492,6 @@ pub(super) fn time_search(
 /// (in its band), per pose.
 fn twin_data_fits(twin: &Twin) -> Vec<f64> {
     (twin.poses.iter())
-        .map(|p| {
-            let mut w = p.model.clone();
-            if let Some(s) = p.frf_exp_window_sigma {
-                w.shift_poles(-s);
-            }
-            let fits = crate::campaign::channel_fits(&w, &p.frf, (p.band_hz[0], p.band_hz[1]));
-            let d: Vec<f64> = fits
-                .iter()
-                .filter(|c| c.channel.output == c.channel.input && c.fit_pct.is_finite())
-                .map(|c| c.fit_pct)
-                .collect();
-            d.iter().sum::<f64>() / d.len().max(1) as f64
-        })
+        .map(|p| crate::campaign::direct_data_fit(p, &p.model))
         .collect()
 }
