@@ -729,7 +729,6 @@ fn refinement_bounds(
         .map(|(j, &k)| {
             let id = ModeBounds::identity(old, k, &Prior::default());
             let m = res.model.modes[k];
-            let (lw, lz) = (m.wn.ln(), m.zeta.max(1e-6).ln());
             let [sw, sz] = res
                 .posterior_sd
                 .get(j)
@@ -738,14 +737,20 @@ fn refinement_bounds(
             let f = m.freq_hz().max(1e-300);
             let dw = (3.0 * sw).max((1.0 + df_hz / f).ln());
             let dz = (3.0 * sz).max((1.0 + 1.44 * df_hz / (2.0 * m.zeta.max(1e-6) * f)).ln());
-            let cut =
-                |(a, b): (f64, f64), c: f64, d: f64| ((c - d).max(a).min(c), (c + d).min(b).max(c));
-            ModeBounds {
-                ln_wn: cut(id.ln_wn, lw, dw),
-                ln_zeta: cut(id.ln_zeta, lz, dz),
-            }
+            region_around(&id, m, dw, dz)
         })
         .collect()
+}
+
+/// The region of half-widths `dw` (ln ω) and `dz` (ln ζ) around mode `m`, within the
+/// identity bounds `id`.
+fn region_around(id: &ModeBounds, m: crate::model::Mode, dw: f64, dz: f64) -> ModeBounds {
+    let (lw, lz) = (m.wn.ln(), m.zeta.max(1e-6).ln());
+    let cut = |(a, b): (f64, f64), c: f64, d: f64| ((c - d).max(a).min(c), (c + d).min(b).max(c));
+    ModeBounds {
+        ln_wn: cut(id.ln_wn, lw, dw),
+        ln_zeta: cut(id.ln_zeta, lz, dz),
+    }
 }
 
 /// Half-width of the in-time retune's frequency scan, as a factor ([`retune_in_time`]).
@@ -778,19 +783,7 @@ fn retune_in_time(
         .map(|i| (-ln_span + step * i as f64).exp())
         .collect();
     let mid = TIME_RETUNE_STEPS / 2;
-    let halves: [Vec<TimeSeries>; 2] = [false, true].map(|second| {
-        records
-            .iter()
-            .map(|r| {
-                let h = r.len() / 2;
-                if second {
-                    crate::signal::slice(r, h, r.len())
-                } else {
-                    crate::signal::slice(r, 0, h)
-                }
-            })
-            .collect()
-    });
+    let halves = record_halves(records);
     let debug = std::env::var_os("MTWIN_DEBUG_REFIT").is_some();
     // per candidate: the scan's best step and gain (1 - (rms/rms0)^2) on `recs`
     let scan = |k: usize, recs: &[TimeSeries]| -> Option<(usize, f64)> {
@@ -902,18 +895,12 @@ fn recentred(
         .zip(bounds)
         .map(|(&k, b)| {
             let id = ModeBounds::identity(old, k, &Prior::default());
-            let m = model.modes[k];
-            let (lw, lz) = (m.wn.ln(), m.zeta.max(1e-6).ln());
-            let (dw, dz) = (
+            region_around(
+                &id,
+                model.modes[k],
                 0.5 * (b.ln_wn.1 - b.ln_wn.0),
                 0.5 * (b.ln_zeta.1 - b.ln_zeta.0),
-            );
-            let cut =
-                |(a, b): (f64, f64), c: f64, d: f64| ((c - d).max(a).min(c), (c + d).min(b).max(c));
-            ModeBounds {
-                ln_wn: cut(id.ln_wn, lw, dw),
-                ln_zeta: cut(id.ln_zeta, lz, dz),
-            }
+            )
         })
         .collect()
 }
@@ -928,13 +915,9 @@ struct Halves {
     lines: [Vec<usize>; 2],
 }
 
-fn split_halves(
-    records: &[TimeSeries],
-    nfft: usize,
-    outputs: &[Axis],
-    opts: &RefitOptions,
-) -> Option<Halves> {
-    let half = |second: bool| -> Vec<TimeSeries> {
+/// Every record's first halves and second halves.
+fn record_halves(records: &[TimeSeries]) -> [Vec<TimeSeries>; 2] {
+    [false, true].map(|second| {
         records
             .iter()
             .map(|r| {
@@ -946,8 +929,16 @@ fn split_halves(
                 }
             })
             .collect()
-    };
-    let recs = [half(false), half(true)];
+    })
+}
+
+fn split_halves(
+    records: &[TimeSeries],
+    nfft: usize,
+    outputs: &[Axis],
+    opts: &RefitOptions,
+) -> Option<Halves> {
+    let recs = record_halves(records);
     let mut seg = nfft;
     for _ in 0..3 {
         if seg < 64 {
