@@ -206,20 +206,25 @@ fn ringing_modal_campaign_twin_fits_the_truth_everywhere() {
 #[test]
 #[ignore]
 fn scan_oblique_modal_campaigns() {
-    let (a, b) = std::env::var("MTWIN_SCAN_SEEDS")
-        .ok()
-        .and_then(|v| {
-            let (a, b) = v.split_once('-')?;
-            Some((a.parse().ok()?, b.parse().ok()?))
-        })
-        .unwrap_or((31u64, 34u64));
-    let seeds: Vec<u64> = (a..=b).collect();
+    let seeds = scan_seeds((31, 34));
     let wrong = fits_everywhere(&seeds, true, 99.5);
     eprintln!(
         "{} of {} below target: {wrong:#?}",
         wrong.len(),
         seeds.len()
     );
+}
+
+/// The seeds of a scan: `MTWIN_SCAN_SEEDS=A-B`, else `default` (both ends included).
+fn scan_seeds(default: (u64, u64)) -> Vec<u64> {
+    let (a, b) = std::env::var("MTWIN_SCAN_SEEDS")
+        .ok()
+        .and_then(|v| {
+            let (a, b) = v.split_once('-')?;
+            Some((a.parse().ok()?, b.parse().ok()?))
+        })
+        .unwrap_or(default);
+    (a..=b).collect()
 }
 
 /// The campaigns of `seeds`, each twin against its truth: a line per seed whose worst
@@ -478,14 +483,7 @@ fn refit_from_harmonic_milling_tracks_the_worn_mode() {
 #[test]
 #[ignore]
 fn scan_refit_from_worn_milling() {
-    let (a, b) = std::env::var("MTWIN_SCAN_SEEDS")
-        .ok()
-        .and_then(|v| {
-            let (a, b) = v.split_once('-')?;
-            Some((a.parse().ok()?, b.parse().ok()?))
-        })
-        .unwrap_or((61u64, 64u64));
-    let seeds: Vec<u64> = (a..=b).collect();
+    let seeds = scan_seeds((61, 64));
     let wrong = refits(&seeds, 98.0);
     eprintln!(
         "{} of {} below target: {wrong:#?}",
