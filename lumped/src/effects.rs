@@ -18,7 +18,7 @@
 //! | `mode_change` | one joint's stiffness ×0.55…0.85 and/or dashpots ×1.6…2.5 | impact x, y | `freq_hz`, `new_freq_hz`, `damping`, `new_damping`, `axis` (+ joint, factors) |
 //! | `unmodeled_mode` | a 0.4–1.5 kg mass on a spring at the tool tip, tuned to 500–2400 Hz along x or y | impact x, y | `freq_hz`, `damping`, `axis` |
 //! | `pose_dependence` | a guideway's stiffness changing 100–200 %/m along its axis | impact x, y at centre ± span | `axis_of_variation`, `freq_shift_pct_per_m` (+ nominal rate, mode) |
-//! | `nonlinearity` | hardening cubic spring in a screw or guide | one impact record, hits at 3 force levels | `freq_hz`, `kind`, `axis` |
+//! | `nonlinearity` | hardening cubic spring in a screw or guide, drawn until the mode it moves most moves 1-3 % between 60 and 1200 N hits (at most 10 times the joint's stiffness at the top level) | one impact record, hits at 3 force levels | `freq_hz`, `kind`, `axis` |
 //! | `time_delay` | responses 2–6 samples late | impact x, y | `delay_s` |
 //! | `cross_coupling` | a guideway turned 15–30°, drawn until a cross channel's peak at least doubles (a coupling the healthy machine lacks) | impact x, y | `channel`, `freq_hz` |
 //! | `disturbance` | 1–2 sinusoids entering through the bed, 15–40 % of the response RMS | milling at 2 speeds | `freq_hz` (list) |
@@ -238,7 +238,7 @@ fn cut_start(m: &Milling, seconds: f64) -> Pose {
 /// How far each visible mode (of `modes`, indices `vis`) whose direct channel is along
 /// `axis` moves from one noise-free hit at the lightest to one at the hardest of
 /// `levels` on `machine` (its cubic spring) at the centre: `(index, relative shift of
-/// the resonance)`, the resonance being the largest |Y/F| within ±5 % of the mode (at
+/// the resonance)`, the resonance being the largest |Y/F| within −5 % and +25 % of the mode (at
 /// most half way to the next visible mode), from transforms zero-padded to 2^18 points
 /// with a parabola through the top three lines; a mode whose largest |Y/F| lies on its
 /// window's edge at either level (no resonance of its own there) is left out.
@@ -291,13 +291,18 @@ fn resonance_shifts(
         .filter(|&&j| modes[j].axis().min(1) == axis)
         .filter_map(|&j| {
             let f = modes[j].freq_hz;
-            let gap = (vis.iter())
-                .filter(|&&k| k != j)
-                .map(|&k| (modes[k].freq_hz / f).ln().abs())
-                .fold(f64::INFINITY, f64::min);
-            let w = (0.5 * gap).min(0.05);
-            let a = ((f * (1.0 - w) / df) as usize).max(1);
-            let b = ((f * (1.0 + w) / df) as usize).min(lo_mag.len() - 2);
+            // half the log distance to the nearest visible mode below and above
+            let gap = |above: bool| {
+                (vis.iter())
+                    .filter(|&&k| k != j && (modes[k].freq_hz > f) == above)
+                    .map(|&k| 0.5 * (modes[k].freq_hz / f).ln().abs())
+                    .fold(f64::INFINITY, f64::min)
+            };
+            // a hardening spring moves its mode up, by up to a fifth (the saddle screw's
+            // 76.7 Hz mode to 92 Hz at 1200 N): the window reaches further up
+            let (wl, wu) = (gap(false).min(0.05), gap(true).min(0.25));
+            let a = ((f * (1.0 - wl) / df) as usize).max(1);
+            let b = ((f * (1.0 + wu) / df) as usize).min(lo_mag.len() - 2);
             if b < a + 2 {
                 return None;
             }
@@ -306,6 +311,10 @@ fn resonance_shifts(
         })
         .collect()
 }
+
+/// Largest strength of the nonlinearity case's cubic joint spring: `k3 δ² ≤ α k` at the
+/// top hit level's dynamic deflection δ of the joint of linear stiffness `k`.
+const CUBIC_MAX_ALPHA: f64 = 10.0;
 
 /// Generate `effect` on `base` from `seed` with default record lengths.
 pub fn case(base: &Machine, effect: Effect, seed: u64) -> Case {
@@ -543,51 +552,103 @@ pub fn case_with(base: &Machine, effect: Effect, seed: u64, o: &CaseOptions) -> 
                 (Joint::RamGuide, 0),
                 (Joint::RamGuide, 1),
             ];
-            let &(joint, dir) = choices.choose(&mut rng).unwrap_or(&choices[0]);
+            // The spring is drawn by what it does: the mode it moves most moves by 1-3 %
+            // between a 60 N and a 1200 N hit (noise-free resonances; vmachine's cubic
+            // mode moves 3-5 %). Drawn by its own strength instead (k3 δ² = 0.5-1.5 k at
+            // the top level's dynamic deflection), 7 of 20 seeds moved no mode by more
+            // than 0.3 % (the table screw's 72.9 Hz mode by 0.17-0.21 %): below the
+            // scatter of a linear machine's frequencies between hits, an effect no data
+            // of this test can show. A joint whose spring cannot reach 1 % at
+            // [`CUBIC_MAX_ALPHA`] (the table screw, the ram guide along x: 0.6 %) gives way
+            // to the next of the choices, in an order drawn from the seed.
+            let mut order: Vec<(Joint, usize)> = choices.to_vec();
+            order.shuffle(&mut rng);
+            let target = rng.gen_range(0.01..0.03);
+            let levels = [60.0, 300.0, 1200.0];
             let asm = base.assemble(CENTRE, o.impact.tip_mass);
-            // the visible mode straining this joint direction most
-            let strain = |m: &Mode| {
-                let mut e = 0.0;
-                let mut all = 0.0;
-                for c in &asm.layout.contacts {
-                    let t = asm.layout.contact_map(c);
-                    let tc = t.map(|v| num_complex::Complex64::new(v, 0.0));
-                    let d = tc * &m.shape;
-                    for dd in 0..3 {
-                        let e_dir = c.frame.column(dd);
-                        let comp: num_complex::Complex64 = (0..3).map(|r| d[r] * e_dir[r]).sum();
-                        let w = c.k[dd] * comp.norm_sqr();
-                        all += w;
-                        if c.joint == joint && dd == dir {
-                            e += w;
+            // (joint, direction, strained mode, k3, largest shift reached)
+            let draw = |joint: Joint, dir: usize| -> (Joint, usize, usize, f64, f64) {
+                // the visible mode straining this joint direction most
+                let strain = |m: &Mode| {
+                    let mut e = 0.0;
+                    let mut all = 0.0;
+                    for c in &asm.layout.contacts {
+                        let t = asm.layout.contact_map(c);
+                        let tc = t.map(|v| num_complex::Complex64::new(v, 0.0));
+                        let d = tc * &m.shape;
+                        for dd in 0..3 {
+                            let e_dir = c.frame.column(dd);
+                            let comp: num_complex::Complex64 =
+                                (0..3).map(|r| d[r] * e_dir[r]).sum();
+                            let w = c.k[dd] * comp.norm_sqr();
+                            all += w;
+                            if c.joint == joint && dd == dir {
+                                e += w;
+                            }
                         }
                     }
+                    e / all.max(f64::MIN_POSITIVE)
+                };
+                let i = *vis
+                    .iter()
+                    .max_by(|&&a, &&b| {
+                        (strain(&before[a]) * before[a].max_peak())
+                            .total_cmp(&(strain(&before[b]) * before[b].max_peak()))
+                    })
+                    .unwrap_or(&0);
+                let mode = &before[i];
+                let hammer_axis = mode.axis().min(1);
+                let defl = crate::sim::static_joint_deflection(
+                    &asm,
+                    joint,
+                    dir,
+                    unit(hammer_axis).map(|v| v * levels[2]),
+                );
+                // a short pulse of duration T moves a mode of ω by about ω T (2/π) of the
+                // static deflection under its peak force
+                let dyn_defl =
+                    defl * 2.0 * PI * mode.freq_hz * Hammer::plastic().pulse_s() * 2.0 / PI;
+                let k_lin = base.joints[joint.index()].k[dir].max(1.0);
+                let per_alpha = k_lin / dyn_defl.max(1e-12).powi(2);
+                let largest_shift = |k3: f64| {
+                    let mut m = machine.clone();
+                    m.cubic = Some(CubicSpring { joint, dir, k3 });
+                    resonance_shifts(&m, o, hammer_axis, &before, &vis, levels)
+                        .iter()
+                        .map(|s| s.1.abs())
+                        .fold(0.0, f64::max)
+                };
+                // k3 δ² = α k at the top level's dynamic deflection, α from 1 by the ratio
+                // of the target to the shift reached (a shift grows about linearly with
+                // k3, less once the joint stiffens to rigid)
+                let mut alpha: f64 = 1.0;
+                let mut reached = largest_shift(alpha * per_alpha);
+                for _ in 0..4 {
+                    if !(reached > 0.0) {
+                        break;
+                    }
+                    let next = (alpha * target / reached).clamp(alpha / 30.0, CUBIC_MAX_ALPHA);
+                    if (next / alpha - 1.0).abs() < 0.05 {
+                        break;
+                    }
+                    alpha = next;
+                    reached = largest_shift(alpha * per_alpha);
                 }
-                e / all.max(f64::MIN_POSITIVE)
+                (joint, dir, i, alpha * per_alpha, reached)
             };
-            let i = *vis
-                .iter()
-                .max_by(|&&a, &&b| {
-                    (strain(&before[a]) * before[a].max_peak())
-                        .total_cmp(&(strain(&before[b]) * before[b].max_peak()))
-                })
-                .unwrap_or(&0);
+            let mut best = draw(order[0].0, order[0].1);
+            for &(j, d) in &order[1..] {
+                if best.4 >= 0.01 {
+                    break;
+                }
+                let next = draw(j, d);
+                if next.4 > best.4 {
+                    best = next;
+                }
+            }
+            let (joint, dir, i, k3, _) = best;
             let mode = before[i].clone();
             let hammer_axis = mode.axis().min(1);
-            let levels = [60.0, 300.0, 1200.0];
-            let defl = crate::sim::static_joint_deflection(
-                &asm,
-                joint,
-                dir,
-                unit(hammer_axis).map(|v| v * levels[2]),
-            );
-            // a short pulse of duration T moves a mode of ω by about ω T (2/π) of the
-            // static deflection under its peak force
-            let dyn_defl = defl * 2.0 * PI * mode.freq_hz * Hammer::plastic().pulse_s() * 2.0 / PI;
-            let k_lin = base.joints[joint.index()].k[dir].max(1.0);
-            let alpha = rng.gen_range(0.5..1.5);
-            // k3 δ² = α k at the top level's dynamic deflection
-            let k3 = alpha * k_lin / dyn_defl.max(1e-12).powi(2);
             let mut with_spring = machine.clone();
             with_spring.cubic = Some(CubicSpring { joint, dir, k3 });
             if !o.linear_control {

@@ -773,10 +773,13 @@ fn lumped_twin_holds_no_channel_that_runs_away_where_its_coherence_is_low() {
 /// larger of the two relative changes once named the 566 Hz mode, whose band then showed
 /// no gain (`unexplained`). Seed 18: the ram guide at 0.58x stiffness moves the 137 Hz
 /// mode to 125 Hz; retuned together with the 928 Hz mode, the 140 Hz mode was carried
-/// off to 202 Hz (the new mode beside it was named instead).
+/// off to 202 Hz (the new mode beside it was named instead). Seeds 3 and 5: the saddle
+/// guide's damping x2.1, and its stiffness x0.76 (137.1 -> 127.3 Hz), on the y mode of the
+/// 137/140-145 Hz x/y pair; retuned together, the pair carried the x mode there and named
+/// it (139.4 and 143.8 Hz), for 1-3 % less misfit than the y mode retuned alone.
 #[test]
 fn lumped_joint_change_names_the_mode_that_moved() {
-    for seed in [10u64, 18] {
+    for seed in [10u64, 18, 3, 5] {
         let (d, answer) = diagnose_with_answer(Effect::ModeChange, seed);
         assert_eq!(d["cause"], "mode_change", "seed {seed}: {d}");
         let got = |k: &str| d["details"][k].as_f64().unwrap_or(f64::NAN);
@@ -792,13 +795,14 @@ fn lumped_joint_change_names_the_mode_that_moved() {
     }
 }
 
-/// Seed 18: the saddle guide's cubic spring moves the 566 Hz mode 0.34 % up between 300
-/// and 1200 N, beside modes at 576 and 615 Hz. The levels' FRFs disagree 3.65 times their
-/// variance there, but the response centroid over the group moves only 0.10 %, and a
-/// centroid shift below 0.2 % once ruled the nonlinearity out (`none`).
+/// Seed 12: the saddle guide's cubic spring moves the 566 Hz mode 1.2 % up between 60 and
+/// 1200 N hits (noise-free), beside modes at 576 and 615 Hz. The two heaviest levels' FRFs
+/// disagree 6.4 times their variance there, the lighter pair 0.8 times. (Seed 18 of the
+/// generator before its spring was drawn to move a mode by 1-3 % held the same group at a
+/// 0.34 % move, the response centroid over it moving only 0.10 %.)
 #[test]
 fn lumped_strong_level_disagreement_in_a_close_group_is_a_nonlinearity() {
-    let (d, answer) = diagnose_with_answer(Effect::Nonlinearity, 18);
+    let (d, answer) = diagnose_with_answer(Effect::Nonlinearity, 12);
     assert_eq!(d["cause"], "nonlinearity", "{d}");
     assert_eq!(d["details"]["kind"], answer["details"]["kind"], "{d}");
     let got = d["details"]["freq_hz"].as_f64().unwrap_or(f64::NAN);

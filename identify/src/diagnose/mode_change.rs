@@ -62,6 +62,31 @@ pub(super) fn best_retune(model: &ModalModel, pts: &[Points]) -> Option<(f64, us
     tries.retain(|t| {
         (t.1.iter()).all(|&i| (f(&t.3, i) / f(model, i)).ln().abs() <= RETUNE_MAX_SHIFT.ln())
     });
+    // A pair retune has twice the parameters of either mode's: it must lower χ below the
+    // better of its modes retuned alone by a clear share of the twin's, or the single
+    // mode stands (second generator, an x/y pair at 137/144 Hz: the y mode worn to
+    // 127 Hz, retuned alone χ 1.19 -> 0.529 at 127.3 Hz; the pair 0.513 carried the x
+    // mode there instead and named it; the same pair took a damping change of the y
+    // mode onto the x mode's frequency).
+    let single = |i: usize, tries: &[(f64, Vec<usize>, usize, ModalModel)]| {
+        (tries.iter())
+            .filter(|t| t.1 == [i])
+            .map(|t| t.0)
+            .fold(f64::INFINITY, f64::min)
+    };
+    let pair_earns: Vec<bool> = (tries.iter())
+        .map(|t| {
+            t.1.len() < 2
+                || t.0
+                    <= t.1
+                        .iter()
+                        .map(|&i| single(i, &tries))
+                        .fold(f64::INFINITY, f64::min)
+                        - JOINT_RETUNE_MIN_DROP * chi0
+        })
+        .collect();
+    let mut earns = pair_earns.into_iter();
+    tries.retain(|_| earns.next().unwrap_or(true));
     // A joint's change moves every mode that strains it: the two retunes that each
     // explain a clear part of the misfit on their own, in bands apart, retuned together
     // (second generator: the saddle guide's damping x2.1 widened the 137 Hz y mode and
