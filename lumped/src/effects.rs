@@ -566,8 +566,10 @@ pub fn case_with(base: &Machine, effect: Effect, seed: u64, o: &CaseOptions) -> 
             let target = rng.gen_range(0.01..0.03);
             let levels = [60.0, 300.0, 1200.0];
             let asm = base.assemble(CENTRE, o.impact.tip_mass);
-            // (joint, direction, strained mode, k3, largest shift reached)
-            let draw = |joint: Joint, dir: usize| -> (Joint, usize, usize, f64, f64) {
+            // (joint, direction, strained mode, k3, largest shift reached, every visible
+            // mode's shift at that k3)
+            type Drawn = (Joint, usize, usize, f64, f64, Vec<(usize, f64)>);
+            let draw = |joint: Joint, dir: usize| -> Drawn {
                 // the visible mode straining this joint direction most
                 let strain = |m: &Mode| {
                     let mut e = 0.0;
@@ -610,19 +612,18 @@ pub fn case_with(base: &Machine, effect: Effect, seed: u64, o: &CaseOptions) -> 
                     defl * 2.0 * PI * mode.freq_hz * Hammer::plastic().pulse_s() * 2.0 / PI;
                 let k_lin = base.joints[joint.index()].k[dir].max(1.0);
                 let per_alpha = k_lin / dyn_defl.max(1e-12).powi(2);
-                let largest_shift = |k3: f64| {
+                let shifts_at = |k3: f64| {
                     let mut m = machine.clone();
                     m.cubic = Some(CubicSpring { joint, dir, k3 });
-                    resonance_shifts(&m, o, hammer_axis, &before, &vis, levels)
-                        .iter()
-                        .map(|s| s.1.abs())
-                        .fold(0.0, f64::max)
+                    let shifts = resonance_shifts(&m, o, hammer_axis, &before, &vis, levels);
+                    let largest = shifts.iter().map(|s| s.1.abs()).fold(0.0, f64::max);
+                    (largest, shifts)
                 };
                 // k3 δ² = α k at the top level's dynamic deflection, α from 1 by the ratio
                 // of the target to the shift reached (a shift grows about linearly with
                 // k3, less once the joint stiffens to rigid)
                 let mut alpha: f64 = 1.0;
-                let mut reached = largest_shift(alpha * per_alpha);
+                let (mut reached, mut shifts) = shifts_at(alpha * per_alpha);
                 for _ in 0..4 {
                     if !(reached > 0.0) {
                         break;
@@ -632,9 +633,9 @@ pub fn case_with(base: &Machine, effect: Effect, seed: u64, o: &CaseOptions) -> 
                         break;
                     }
                     alpha = next;
-                    reached = largest_shift(alpha * per_alpha);
+                    (reached, shifts) = shifts_at(alpha * per_alpha);
                 }
-                (joint, dir, i, alpha * per_alpha, reached)
+                (joint, dir, i, alpha * per_alpha, reached, shifts)
             };
             let mut best = draw(order[0].0, order[0].1);
             for &(j, d) in &order[1..] {
@@ -646,7 +647,7 @@ pub fn case_with(base: &Machine, effect: Effect, seed: u64, o: &CaseOptions) -> 
                     best = next;
                 }
             }
-            let (joint, dir, i, k3, _) = best;
+            let (joint, dir, i, k3, _, shifts) = best;
             let mode = before[i].clone();
             let hammer_axis = mode.axis().min(1);
             let mut with_spring = machine.clone();
@@ -675,7 +676,6 @@ pub fn case_with(base: &Machine, effect: Effect, seed: u64, o: &CaseOptions) -> 
             // data (noise-free), which need not be the one straining the joint most:
             // the table screw's spring moves the 72.9 Hz mode it strains most by
             // 0.2-0.3 % between 60 and 1200 N, and the 563 Hz mode by 1.1 %
-            let shifts = resonance_shifts(&with_spring, o, hammer_axis, &before, &vis, levels);
             let named = shifts
                 .iter()
                 .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
