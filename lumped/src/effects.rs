@@ -674,8 +674,8 @@ pub fn case_with(base: &Machine, effect: Effect, seed: u64, o: &CaseOptions) -> 
             );
             // the answer names the mode that moves most with the force level in these
             // data (noise-free), which need not be the one straining the joint most:
-            // a table screw spring of the strength once drawn moved the 72.9 Hz mode it strains most by
-            // 0.2-0.3 % between 60 and 1200 N, and the 563 Hz mode by 1.1 %
+            // a table screw spring of the strength once drawn moved the 72.9 Hz mode it
+            // strains most by 0.2-0.3 % between 60 and 1200 N, the 563 Hz mode by 1.1 %
             let named = shifts
                 .iter()
                 .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
