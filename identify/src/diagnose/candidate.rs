@@ -157,9 +157,20 @@ pub(super) fn pair_partner(
     k: usize,
     among: impl Iterator<Item = usize>,
 ) -> Option<usize> {
+    nearest_mode_within(model, k, among, PAIR_MAX_SPACING)
+}
+
+/// The mode of `among` (not `k`) nearest to mode `k` of `model` in frequency, within a
+/// relative distance `spacing` of it.
+pub(super) fn nearest_mode_within(
+    model: &ModalModel,
+    k: usize,
+    among: impl Iterator<Item = usize>,
+    spacing: f64,
+) -> Option<usize> {
     let f = |i: usize| model.modes[i].freq_hz();
     among
-        .filter(|&j| j != k && (f(j) / f(k) - 1.0).abs() <= PAIR_MAX_SPACING)
+        .filter(|&j| j != k && (f(j) / f(k) - 1.0).abs() <= spacing)
         .min_by(|&a, &b| (f(a) - f(k)).abs().total_cmp(&(f(b) - f(k)).abs()))
 }
 

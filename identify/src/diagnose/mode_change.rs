@@ -68,25 +68,16 @@ pub(super) fn best_retune(model: &ModalModel, pts: &[Points]) -> Option<(f64, us
     // 127 Hz, retuned alone χ 1.19 -> 0.529 at 127.3 Hz; the pair 0.513 carried the x
     // mode there instead and named it; the same pair took a damping change of the y
     // mode onto the x mode's frequency).
-    let single = |i: usize, tries: &[(f64, Vec<usize>, usize, ModalModel)]| {
-        (tries.iter())
-            .filter(|t| t.1 == [i])
-            .map(|t| t.0)
-            .fold(f64::INFINITY, f64::min)
-    };
-    let pair_earns: Vec<bool> = (tries.iter())
-        .map(|t| {
-            t.1.len() < 2
-                || t.0
-                    <= t.1
-                        .iter()
-                        .map(|&i| single(i, &tries))
-                        .fold(f64::INFINITY, f64::min)
-                        - JOINT_RETUNE_MIN_DROP * chi0
-        })
-        .collect();
-    let mut earns = pair_earns.into_iter();
-    tries.retain(|_| earns.next().unwrap_or(true));
+    let mut single = vec![f64::INFINITY; n];
+    for t in &tries {
+        if let [i] = t.1[..] {
+            single[i] = single[i].min(t.0);
+        }
+    }
+    tries.retain(|t| {
+        let best_single = t.1.iter().map(|&i| single[i]).fold(f64::INFINITY, f64::min);
+        t.1.len() < 2 || t.0 <= best_single - JOINT_RETUNE_MIN_DROP * chi0
+    });
     // A joint's change moves every mode that strains it: the two retunes that each
     // explain a clear part of the misfit on their own, in bands apart, retuned together
     // (second generator: the saddle guide's damping x2.1 widened the 137 Hz y mode and

@@ -1,6 +1,6 @@
 //! Cause `unmodeled_mode`: a mode added at the largest residual peak.
 
-use super::candidate::{largest_residual, map_models, Cand};
+use super::candidate::{largest_residual, map_models, nearest_mode_within, Cand};
 use super::Cause;
 use crate::axis::Channel;
 use crate::modal_update::{chi, update_modes, Points, Prior};
@@ -46,20 +46,12 @@ pub(super) fn cand_unmodeled_mode_after_retune(
     // the added mode there, 888.6 Hz; now 1193.2 Hz). Once: a second loaded mode retuned
     // the same way sent the added mode further from the absorber's (seeds 2, 3, 7: 545,
     // 554, 543 Hz -> 963, 2912, 960 Hz, truth 697, 1219, 676 Hz).
-    let f_new = new.modes[k].freq_hz();
-    let near = (0..moved.modes.len())
-        .filter(|&j| j != *k_moved)
-        .map(|j| (j, (moved.modes[j].freq_hz() / f_new).ln().abs()))
-        .filter(|(_, r)| *r < LOADED_NEIGHBOUR.ln())
-        .min_by(|a, b| a.1.total_cmp(&b.1))
-        .map(|(j, _)| j);
-    if let Some(j) = near {
+    let twin_modes = (0..moved.modes.len()).filter(|j| j != k_moved);
+    if let Some(j) = nearest_mode_within(&new, k, twin_modes, LOADED_NEIGHBOUR) {
         let second = super::candidate::retune(&moved, j, pts).ok().and_then(|r| {
             let (n2, k2, ch2) = add_mode_at_peak(&r.model, pts)?;
-            let apart = (n2.modes[k2].freq_hz() / r.model.modes[j].freq_hz())
-                .ln()
-                .abs()
-                > LOADED_NEIGHBOUR.ln();
+            let apart = (n2.modes[k2].freq_hz() / r.model.modes[j].freq_hz() - 1.0).abs()
+                > LOADED_NEIGHBOUR;
             let (c2, c1) = (chi(&n2, pts, 0.0), chi(&new, pts, 0.0));
             super::trace(|| {
                 format!(
@@ -84,7 +76,7 @@ pub(super) fn cand_unmodeled_mode_after_retune(
 
 /// Relative distance within which a mode added after a retune is taken for a twin mode
 /// that the new part loaded ([`cand_unmodeled_mode_after_retune`]).
-const LOADED_NEIGHBOUR: f64 = 1.1;
+const LOADED_NEIGHBOUR: f64 = 0.1;
 
 /// The candidate whose twin has mode `k` of `new` added at every pose (after `prepare`
 /// changed each pose model), with the new mode's frequency, damping and axis in its
