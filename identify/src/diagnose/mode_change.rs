@@ -309,13 +309,13 @@ const TIME_RETUNE_STEPS: usize = 15;
 /// How far [`cand_mode_change_time`] looks for a mode's new frequency (a factor).
 const TIME_RETUNE_SPAN: f64 = 1.15;
 /// Damping factors [`cand_mode_change_time`] tries at the best frequency.
-const TIME_RETUNE_DAMPING: [f64; 9] = [0.35, 0.5, 0.7, 1.0, 1.4, 2.0, 2.8, 4.0, 5.6];
+pub(super) const TIME_RETUNE_DAMPING: [f64; 9] = [0.35, 0.5, 0.7, 1.0, 1.4, 2.0, 2.8, 4.0, 5.6];
 /// Smallest share of the records' force power within a mode's half-power band (at least
 /// ±3 %) for [`cand_mode_change_time`] to retune it.
-const TIME_RETUNE_MIN_FORCE_SHARE: f64 = 1e-4;
+pub(super) const TIME_RETUNE_MIN_FORCE_SHARE: f64 = 1e-4;
 /// Smallest drop \[points\] of the twin's fit of its own identification FRF (direct
 /// channels, in its band) for which [`cand_mode_change_time`] names a retune.
-const TIME_RETUNE_MIN_DATA_DROP: f64 = 2.0;
+pub(super) const TIME_RETUNE_MIN_DATA_DROP: f64 = 2.0;
 /// Smallest damping change (a factor) that [`cand_mode_change_time`] names when the
 /// frequency moved less than the mode's half-power half-width.
 const TIME_RETUNE_MIN_DAMPING_CHANGE: f64 = 1.5;
@@ -506,7 +506,7 @@ pub(super) fn time_search(
 
 /// The direct channels' mean fit \[%\] of the FRF each pose of `twin` was identified from
 /// (in its band), per pose.
-fn twin_data_fits(twin: &Twin) -> Vec<f64> {
+pub(super) fn twin_data_fits(twin: &Twin) -> Vec<f64> {
     (twin.poses.iter())
         .map(|p| crate::campaign::direct_data_fit(p, &p.model))
         .collect()
