@@ -378,10 +378,11 @@ fn search_turn(
 /// with a partner along the other axis (within [`TURN_PARTNER_SPACING`]) turns with it by
 /// one angle, and the turn must beat the retune of the same modes (a turn by zero), pass
 /// the retune's gates, and be found again, at one angle, in each record alone
-/// ([`TURN_ANGLE_AGREEMENT_DEG`]). Milling forces push along x and y at once and rise and fall together, so at one
-/// harmonic line a new cross channel cannot be told from a changed direct one (the
-/// FRF rule above has nothing to fit); in time, the turned shape's direct and cross
-/// responses must follow every harmonic of both forces together.
+/// ([`TURN_ANGLE_AGREEMENT_DEG`]). Milling forces push along x and y at once and rise
+/// and fall together, so at one harmonic line a new cross channel cannot be told from a
+/// changed direct one (the FRF rule above has nothing to fit); in time, the turned
+/// shape's direct and cross responses must follow every harmonic of both forces
+/// together.
 pub(super) fn cand_cross_coupling_time(
     twin: &Twin,
     model: &ModalModel,
@@ -406,6 +407,7 @@ pub(super) fn cand_cross_coupling_time(
     let other_axis =
         |k: usize, j: usize| in_plane(j) && dominant_axis(&m0, j) != dominant_axis(&m0, k);
     let mut best: Option<(f64, f64, Turn)> = None;
+    let mut searched: Vec<(usize, usize)> = Vec::new();
     for k in excited_modes(&base, &m0, &fit)
         .into_iter()
         .filter(|&k| in_plane(k))
@@ -416,6 +418,13 @@ pub(super) fn cand_cross_coupling_time(
             (0..m0.modes.len()).filter(|&j| other_axis(k, j)),
             TURN_PARTNER_SPACING,
         );
+        // a pair is searched once (from its first mode the records excite)
+        if j.is_some_and(|j| searched.contains(&(j, k))) {
+            continue;
+        }
+        if let Some(j) = j {
+            searched.push((k, j));
+        }
         let Some((r_retune, _, r_turn, t, ln_span)) = search_turn(&fit, &base, k, j) else {
             continue;
         };
