@@ -14,6 +14,7 @@ use crate::axis::{Axis, Channel};
 use crate::modal_update::{chi, Points};
 use crate::model::{ChannelModel, ModalModel, ModeNum};
 use crate::twin::Twin;
+use rayon::prelude::*;
 use serde_json::{json, Map};
 
 /// Largest relative frequency change of a mode refitted as turned into another axis: a
@@ -406,8 +407,8 @@ pub(super) fn cand_cross_coupling_time(
     // turned guide turns the stiffness both modes of one body see
     let other_axis =
         |k: usize, j: usize| in_plane(j) && dominant_axis(&m0, j) != dominant_axis(&m0, k);
-    let mut best: Option<(f64, f64, Turn)> = None;
-    let mut searched: Vec<(usize, usize)> = Vec::new();
+    // the modes to turn, a pair once (from its first mode the records excite)
+    let mut tasks: Vec<(usize, Option<usize>)> = Vec::new();
     for k in excited_modes(&base, &m0, &fit)
         .into_iter()
         .filter(|&k| in_plane(k))
@@ -418,43 +419,43 @@ pub(super) fn cand_cross_coupling_time(
             (0..m0.modes.len()).filter(|&j| other_axis(k, j)),
             TURN_PARTNER_SPACING,
         );
-        // a pair is searched once (from its first mode the records excite)
-        if j.is_some_and(|j| searched.contains(&(j, k))) {
-            continue;
+        if !tasks.iter().any(|&(a, b)| Some(k) == b && j == Some(a)) {
+            tasks.push((k, j));
         }
-        if let Some(j) = j {
-            searched.push((k, j));
-        }
-        let Some((r_retune, _, r_turn, t, ln_span)) = search_turn(&fit, &base, k, j) else {
-            continue;
-        };
-        if t.theta == 0.0 {
-            continue;
-        }
-        let turned = with_turn(&base, &t);
-        let drop = (fits0.iter())
-            .zip(twin_data_fits(&turned))
-            .map(|(a, b)| a - b)
-            .fold(0.0, f64::max);
-        let fk = m0.modes[k].freq_hz();
-        let share = |i: usize, f: f64, z: f64| {
-            let fi = m0.modes[i].freq_hz();
-            let zi = m0.modes[i].zeta;
-            force_share_near(&force, fi * f.min(1.0), fi * f.max(1.0), zi.max(zi * z))
-        };
-        let forced = share(k, t.p[0], t.p[1]).max(j.map_or(0.0, |j| share(j, t.p[2], t.p[3])));
-        super::trace(|| {
-            format!(
-                "  time turn [{k}] ({fk:.1} Hz, partner {j:?}): residual {:.4}, retuned {:.4}, turned {:.4}: {:.1} deg, x{:.4} Hz, x{:.2} damping (partner x{:.4}, x{:.2}), twin data fit drop {drop:.2}, force share there {forced:.1e}",
-                r0 / fit.power,
-                r_retune / fit.power,
-                r_turn / fit.power,
-                t.theta.to_degrees(),
-                t.p[0],
-                t.p[1],
-                t.p[2],
-                t.p[3]
-            )
+    }
+    let found: Vec<(f64, f64, Turn)> = tasks
+        .par_iter()
+        .filter_map(|&(k, j)| {
+            let (r_retune, _, r_turn, t, ln_span) = search_turn(&fit, &base, k, j)?;
+            if t.theta == 0.0 {
+                return None;
+            }
+            let turned = with_turn(&base, &t);
+            let drop = (fits0.iter())
+                .zip(twin_data_fits(&turned))
+                .map(|(a, b)| a - b)
+                .fold(0.0, f64::max);
+            let fk = m0.modes[k].freq_hz();
+            let share = |i: usize, f: f64, z: f64| {
+                let fi = m0.modes[i].freq_hz();
+                let zi = m0.modes[i].zeta;
+                force_share_near(&force, fi * f.min(1.0), fi * f.max(1.0), zi.max(zi * z))
+            };
+            let forced = share(k, t.p[0], t.p[1]).max(j.map_or(0.0, |j| share(j, t.p[2], t.p[3])));
+            super::trace(|| {
+                format!(
+                    "  time turn [{k}] ({fk:.1} Hz, partner {j:?}): residual {:.4}, retuned {:.4}, \
+                        turned {:.4}: {:.1} deg, x{:.4} Hz, x{:.2} damping (partner x{:.4}, x{:.2}), \
+                        twin data fit drop {drop:.2}, force share there {forced:.1e}",
+                    r0 / fit.power,
+                    r_retune / fit.power,
+                    r_turn / fit.power,
+                    t.theta.to_degrees(),
+                    t.p[0],
+                    t.p[1],
+                    t.p[2],
+                    t.p[3]
+                )
         });
         // the gates of the retune in time: not on the search's edge, a turn that
         // matters, one the twin's own identification data contradict, at a mode the cuts
@@ -476,52 +477,41 @@ pub(super) fn cand_cross_coupling_time(
             || near(t.p[0].ln().abs(), ln_span)
             || z_edge(t.p[1])
             || (j.is_some() && (near(t.p[2].ln().abs(), ln_span) || z_edge(t.p[3])));
-        if !on_edge
+        (!on_edge
             && deg >= TIME_TURN_MIN_DEG
             && drop >= TIME_RETUNE_MIN_DATA_DROP
             && forced >= TIME_RETUNE_MIN_FORCE_SHARE
-            && r_turn < r_retune
-            && best.as_ref().is_none_or(|b| r_turn < b.0)
-        {
-            best = Some((r_turn, r_retune, t));
-        }
-    }
-    let (r_turn, r_retune, t) = best?;
+            && r_turn < r_retune)
+            .then_some((r_turn, r_retune, t))
+        })
+        .collect();
+    // the best (the first of equals, in the modes' order)
+    let (r_turn, r_retune, t) =
+        found
+            .into_iter()
+            .fold(None, |b: Option<(f64, f64, Turn)>, c| match b {
+                Some(b) if b.0 <= c.0 => Some(b),
+                _ => Some(c),
+            })?;
     // a turned guide has one angle, whatever the cut: each record alone must give a turn,
     // at angles that agree within TURN_ANGLE_AGREEMENT_DEG (a turn that only soaks up the
     // twin's own error at one cut's harmonics lands elsewhere at another spindle speed;
     // second generator, milling: a healthy cut's pair turned 69 and 29 degrees, a turned
     // ram guide's 61 and 65)
     if parts.len() >= 2 {
-        let mut angles = Vec::with_capacity(parts.len());
-        for a in 0..parts.len() {
-            let rest: Vec<_> = (parts.iter().enumerate())
-                .filter(|(i, _)| *i != a)
-                .map(|(_, p)| p.clone())
-                .collect();
-            let (Some(fit_a), Some(fit_b)) = (
-                InTime::new(&base, std::slice::from_ref(&parts[a])),
-                InTime::new(&base, &rest),
-            ) else {
-                return None;
-            };
-            let (_, ret_a, _, turn_a, _) = search_turn(&fit_a, &base, t.k, t.j)?;
-            let score_b = |x: &Turn| fit_b.residual(&with_turn(&base, x));
-            let (rb_ret, rb_turn) = (score_b(&ret_a)?, score_b(&turn_a)?);
-            super::trace(|| {
-                format!(
-                    "  time turn [{}] fitted to record {a}: {:.1} deg; the other records' residual retuned {:.4}, turned {:.4}",
-                    t.k,
-                    turn_a.theta.to_degrees(),
-                    rb_ret / fit_b.power,
-                    rb_turn / fit_b.power
-                )
-            });
-            if turn_a.theta == 0.0 {
-                return None;
-            }
-            angles.push(turn_a.theta.to_degrees());
-        }
+        let angles: Vec<Option<f64>> = (0..parts.len())
+            .into_par_iter()
+            .map(|a| {
+                let fit_a = InTime::new(&base, std::slice::from_ref(&parts[a]))?;
+                let (_, _, _, turn_a, _) = search_turn(&fit_a, &base, t.k, t.j)?;
+                let deg = turn_a.theta.to_degrees();
+                super::trace(|| {
+                    format!("  time turn [{}] fitted to record {a}: {deg:.1} deg", t.k)
+                });
+                (turn_a.theta != 0.0).then_some(deg)
+            })
+            .collect();
+        let angles: Vec<f64> = angles.into_iter().collect::<Option<_>>()?;
         // angles of a shape are defined modulo 180 degrees
         let apart = |x: f64, y: f64| {
             let d = (x - y).rem_euclid(180.0);
