@@ -74,6 +74,15 @@ fn diagnose_case_with(
     (d, c.answer)
 }
 
+/// [`diagnose_case_with`] of the effect recorded in milling (two cuts) instead of impacts.
+fn diagnose_milling_case(effect: Effect, seed: u64) -> (serde_json::Value, serde_json::Value) {
+    let o = CaseOptions {
+        milling_data: true,
+        ..CaseOptions::default()
+    };
+    diagnose_case_with(effect, seed, &o)
+}
+
 /// A case's records written to `dir` under their own names.
 fn write_records(dir: &Path, c: &lumped::effects::Case) -> Vec<PathBuf> {
     c.records
@@ -967,11 +976,7 @@ fn lumped_absorber_mode_is_named_beside_the_modes_it_loads() {
 /// data then name the new mode.
 #[test]
 fn lumped_milling_absorber_is_not_a_retune_by_a_factor_two() {
-    let o = CaseOptions {
-        milling_data: true,
-        ..CaseOptions::default()
-    };
-    let (d, _) = diagnose_case_with(Effect::UnmodeledMode, 1, &o);
+    let (d, _) = diagnose_milling_case(Effect::UnmodeledMode, 1);
     assert_eq!(d["cause"], "unmodeled_mode", "{d}");
 }
 
@@ -982,11 +987,7 @@ fn lumped_milling_absorber_is_not_a_retune_by_a_factor_two() {
 /// time, the mode is named at its new frequency.
 #[test]
 fn lumped_milling_mode_change_is_found_in_the_cuts_responses() {
-    let o = CaseOptions {
-        milling_data: true,
-        ..CaseOptions::default()
-    };
-    let (d, answer) = diagnose_case_with(Effect::ModeChange, 5, &o);
+    let (d, answer) = diagnose_milling_case(Effect::ModeChange, 5);
     assert_eq!(d["cause"], "mode_change", "{d}");
     let num = |v: &serde_json::Value| v.as_f64().unwrap_or(f64::NAN);
     let (f, want) = (
@@ -1010,11 +1011,7 @@ fn lumped_milling_mode_change_is_found_in_the_cuts_responses() {
 /// responses better than every retune, and the turn is named.
 #[test]
 fn lumped_milling_turned_guide_is_found_in_the_cuts_responses() {
-    let o = CaseOptions {
-        milling_data: true,
-        ..CaseOptions::default()
-    };
-    let (d, answer) = diagnose_case_with(Effect::CrossCoupling, 17, &o);
+    let (d, answer) = diagnose_milling_case(Effect::CrossCoupling, 17);
     assert_eq!(d["cause"], "cross_coupling", "{d}");
     let ch = d["details"]["channel"].as_str().unwrap_or("");
     assert!(
