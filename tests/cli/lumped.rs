@@ -149,6 +149,30 @@ fn lumped_one_pose_twin_diagnoses_healthy_disturbance_and_delay() {
                 );
                 assert!((got / want - 1.0).abs() < 0.1, "delay {got} vs {want}");
             }
+            Effect::Healthy => {
+                // the static part of the misfit: the mean deflection of the held-out parts
+                // (the last 30 % of each cut) as the records have it, and its share
+                let sd = &det["static_deflection"];
+                for (a, name) in ["x", "y"].iter().enumerate() {
+                    let want = c
+                        .records
+                        .iter()
+                        .map(|(_, r)| {
+                            let v = &r.response[a];
+                            let h = v.len() * 7 / 10;
+                            v[h..].iter().sum::<f64>() / (v.len() - h) as f64
+                        })
+                        .sum::<f64>()
+                        / c.records.len() as f64;
+                    let got = sd["axes"][name]["measured_m"].as_f64().unwrap_or(f64::NAN);
+                    assert!(
+                        (got / want - 1.0).abs() < 0.01,
+                        "{name}: {got} vs {want}: {sd}"
+                    );
+                }
+                let share = sd["share_of_misfit"].as_f64().unwrap_or(f64::NAN);
+                assert!((0.0..=1.0).contains(&share), "{sd}");
+            }
             _ => {}
         }
     }

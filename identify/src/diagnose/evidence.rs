@@ -728,6 +728,23 @@ pub(super) fn judged_axes(twin: &Twin, ts: &TimeSeries) -> Vec<Axis> {
 /// response axis the fit counts, as (measured, simulated, sample interval).
 pub(super) struct HeldOut {
     segments: Vec<(Vec<f64>, Vec<f64>, f64)>,
+    /// Per segment: its response axis and whether its record is continuous (not an
+    /// impact test).
+    kinds: Vec<(Axis, bool)>,
+}
+
+/// The static part of the held-out responses of continuous records ([`HeldOut::static_part`]).
+#[derive(Debug, Clone)]
+pub(super) struct StaticPart {
+    /// Per response axis: mean held-out deflection measured and simulated by the twin,
+    /// averaged over the continuous records.
+    pub axes: Vec<(Axis, f64, f64)>,
+    /// Share of the held-out misfit's energy (continuous records) that the difference
+    /// of each segment's means carries.
+    pub share_of_misfit: f64,
+    /// Percentage points of held-out fit (continuous records pooled) that the
+    /// difference of the means costs.
+    pub fit_cost_points: f64,
 }
 
 impl HeldOut {
@@ -738,6 +755,7 @@ impl HeldOut {
         splits: &[Split],
     ) -> Result<HeldOut> {
         let mut segments = Vec::new();
+        let mut kinds = Vec::new();
         for (i, s) in splits.iter().enumerate() {
             let twin = twin_of(i);
             let ts = &s.full;
@@ -749,12 +767,52 @@ impl HeldOut {
                     y[a.index()][s.holdout_start..].to_vec(),
                     ts.dt,
                 ));
+                kinds.push((a, !is_impact(ts)));
             }
         }
         if segments.is_empty() {
             return Err(Error::BadInput("no response column to compare with".into()));
         }
-        Ok(HeldOut { segments })
+        Ok(HeldOut { segments, kinds })
+    }
+
+    /// The static part of the continuous records' held-out responses: the mean
+    /// deflection per axis, measured and simulated, and the share of the misfit it
+    /// carries. `None` without a continuous record or without misfit.
+    pub(super) fn static_part(&self) -> Option<StaticPart> {
+        let (mut dc_err, mut err) = (0.0, 0.0);
+        let mut per_axis: Vec<(Axis, f64, f64, usize)> = Vec::new();
+        for ((m, y, _), (a, continuous)) in self.segments.iter().zip(&self.kinds) {
+            if !continuous || m.is_empty() {
+                continue;
+            }
+            let n = m.len() as f64;
+            let (mm, my) = (m.iter().sum::<f64>() / n, y.iter().sum::<f64>() / n);
+            dc_err += n * (mm - my).powi(2);
+            err += m.iter().zip(y).map(|(u, v)| (u - v).powi(2)).sum::<f64>();
+            match per_axis.iter_mut().find(|p| p.0 == *a) {
+                Some(p) => {
+                    p.1 += mm;
+                    p.2 += my;
+                    p.3 += 1;
+                }
+                None => per_axis.push((*a, mm, my, 1)),
+            }
+        }
+        let pooled: Vec<f64> = (self.segments.iter().zip(&self.kinds))
+            .filter(|(_, k)| k.1)
+            .flat_map(|(sg, _)| sg.0.iter().copied())
+            .collect();
+        let mean = pooled.iter().sum::<f64>() / pooled.len().max(1) as f64;
+        let power: f64 = pooled.iter().map(|v| (v - mean).powi(2)).sum();
+        (err > 0.0 && power > 0.0).then(|| StaticPart {
+            fit_cost_points: 100.0 * (err.sqrt() - (err - dc_err).max(0.0).sqrt()) / power.sqrt(),
+            axes: per_axis
+                .into_iter()
+                .map(|(a, m, y, k)| (a, m / k as f64, y / k as f64))
+                .collect(),
+            share_of_misfit: dc_err / err,
+        })
     }
 
     /// The fit \[%\] of the simulated against the measured held-out responses.
