@@ -25,7 +25,11 @@
 //!
 //! Mode change, new mode, delay and cross coupling are also recorded in milling
 //! ([`CaseOptions::milling_data`]: the same drawn effect, two cuts at 6900-8700 rpm
-//! instead of the impact tests; the delay's `delay_s` at the milling sample rate).
+//! instead of the impact tests; the delay's `delay_s` at the milling sample rate). Their
+//! answers then also say how much the effect shows in those cuts, noise-free, over the
+//! last 30 % of each: `milling_response_change` (RMS change of the x/y response without
+//! its mean, relative to the healthy machine's) and `milling_static_change` (change of
+//! the mean deflection, relative).
 
 use crate::excitation::{Hammer, Hit, Milling};
 use crate::measure::{
