@@ -357,7 +357,15 @@ pub fn case_with(base: &Machine, effect: Effect, seed: u64, o: &CaseOptions) -> 
     let records: Vec<(String, Record)> = match effect {
         Effect::Healthy => {
             let mills = millings(o, &mut rng);
-            mill_records(&machine, o, &mills, fresh, None, 0)
+            mill_records(
+                &machine,
+                o,
+                &mills,
+                clean_cuts(&machine, o, &mills),
+                fresh,
+                None,
+                0,
+            )
         }
         Effect::ModeChange => {
             let joints = [
@@ -858,7 +866,15 @@ pub fn case_with(base: &Machine, effect: Effect, seed: u64, o: &CaseOptions) -> 
             let rel = rng.gen_range(0.15..0.4);
             details.insert("freq_hz".into(), json!(fd));
             details.insert("rms_relative".into(), json!(round(rel, 3)));
-            mill_records(&machine, o, &mills, fresh, Some((fd.clone(), rel, seed)), 0)
+            mill_records(
+                &machine,
+                o,
+                &mills,
+                clean_cuts(&machine, o, &mills),
+                fresh,
+                Some((fd.clone(), rel, seed)),
+                0,
+            )
         }
     };
     // the same drawn effect recorded in milling (the impact records above were the
@@ -871,12 +887,13 @@ pub fn case_with(base: &Machine, effect: Effect, seed: u64, o: &CaseOptions) -> 
             details.insert("delay_s".into(), json!(k as f64 / o.milling.daq.fs));
         }
         let mills = millings(o, &mut rng);
+        let cuts = clean_cuts(&machine, o, &mills);
         if k == 0 {
-            let (ac, dc) = milling_change(base, &machine, o, &mills);
+            let (ac, dc) = milling_change(base, &cuts, o, &mills);
             details.insert("milling_response_change".into(), json!(round(ac, 4)));
             details.insert("milling_static_change".into(), json!(round(dc, 4)));
         }
-        mill_records(&machine, o, &mills, fresh, None, k)
+        mill_records(&machine, o, &mills, cuts, fresh, None, k)
     } else {
         records
     };
@@ -888,23 +905,37 @@ pub fn case_with(base: &Machine, effect: Effect, seed: u64, o: &CaseOptions) -> 
     }
 }
 
-/// How much an effect on `changed` shows in the noise-free cuts `mills` of the base
-/// machine `base` along x and y, over the last 30 % of each cut (where `mtwin diagnose`
+/// The noise-free cuts `mills` on `machine`, each from its [`cut_start`].
+fn clean_cuts(machine: &Machine, o: &CaseOptions, mills: &[Milling]) -> Vec<Clean> {
+    mills
+        .iter()
+        .map(|m| {
+            milling_clean(
+                machine,
+                &o.milling,
+                m,
+                cut_start(m, o.milling_s),
+                o.milling_s,
+            )
+        })
+        .collect()
+}
+
+/// How much an effect shows in the noise-free cuts `changed` (the cuts `mills` on the
+/// changed machine, [`clean_cuts`]) against the same cuts on the base machine `base`,
+/// along x and y, over the last 30 % of each cut (where `mtwin diagnose`
 /// holds out by default): `(dynamic, static)`, the RMS of the change of the response
 /// without its mean relative to the base response's RMS without its mean, and the
 /// change of the mean deflection relative to the base's mean deflection. What the
 /// answers report so that a miss can be told from an effect the cuts barely show.
 fn milling_change(
     base: &Machine,
-    changed: &Machine,
+    changed: &[Clean],
     o: &CaseOptions,
     mills: &[Milling],
 ) -> (f64, f64) {
     let (mut d_ac, mut p_ac, mut d_dc, mut p_dc) = (0.0, 0.0, 0.0, 0.0);
-    for m in mills {
-        let start = cut_start(m, o.milling_s);
-        let a = milling_clean(base, &o.milling, m, start, o.milling_s);
-        let b = milling_clean(changed, &o.milling, m, start, o.milling_s);
+    for (a, b) in clean_cuts(base, o, mills).iter().zip(changed) {
         for ax in 0..2 {
             let (ya, yb) = (&a.response[ax], &b.response[ax]);
             let h = ya.len() * 7 / 10;
@@ -923,21 +954,23 @@ fn milling_change(
     (rel(d_ac, p_ac), rel(d_dc, p_dc))
 }
 
-/// Milling records, optionally with an outside vibration `(freqs, rms share, seed)`.
+/// Milling records from the noise-free cuts `cuts` ([`clean_cuts`] of `mills` on
+/// `machine`), optionally with an outside vibration `(freqs, rms share, seed)`.
 fn mill_records(
     machine: &Machine,
     o: &CaseOptions,
     mills: &[Milling],
+    cuts: Vec<Clean>,
     seed: u64,
     disturbance: Option<(Vec<f64>, f64, u64)>,
     delay_samples: usize,
 ) -> Vec<(String, Record)> {
     mills
         .iter()
+        .zip(cuts)
         .enumerate()
-        .map(|(k, m)| {
+        .map(|(k, (m, mut c))| {
             let start = cut_start(m, o.milling_s);
-            let mut c: Clean = milling_clean(machine, &o.milling, m, start, o.milling_s);
             let mut comments = milling_comments(m);
             if let Some((fd, rel, s)) = &disturbance {
                 let mut rng = StdRng::seed_from_u64(*s + k as u64);
