@@ -1037,9 +1037,10 @@ const STATIC_NOTE_POINTS: f64 = 1.0;
 /// The continuous records' static deflection in `details` (`static_deflection`: per axis
 /// the mean held-out deflection measured and simulated by `twin`, and the share of the
 /// twin's held-out misfit that the mean deflection carries, and the fit points it costs).
-/// When that share is the larger part and costs at least [`STATIC_NOTE_POINTS`], a sentence for the summary naming the axis whose mean deflection the
-/// twin misses by most: the static compliance of a twin identified from accelerance is
-/// extrapolated below its band, and no dynamic cause explains it.
+/// When that share is the larger part and costs at least [`STATIC_NOTE_POINTS`], a
+/// sentence for the summary naming the axis whose mean deflection the twin misses by
+/// most: a twin's static compliance is extrapolated below its band (for a twin from
+/// accelerometer impact tests, from well above 0 Hz), and no dynamic cause explains it.
 fn static_deflection(
     held_out: &HeldOut,
     twin: &Twin,
@@ -1074,8 +1075,8 @@ fn static_deflection(
     Some(format!(
         "Most ({:.0} %) of the twin's held-out misfit is the mean deflection of the cuts \
          (along {} {:.2} times the twin's): the twin's static compliance is extrapolated \
-         below its band (from {lo:.0} Hz), which accelerance data cannot show; a static \
-         or low-frequency displacement test measures it.",
+         below its band (from {lo:.0} Hz), where its identification data held no trusted \
+         line; a static or low-frequency displacement test measures it.",
         100.0 * sp.share_of_misfit,
         worst.0,
         worst.1
