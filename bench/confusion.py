@@ -23,6 +23,8 @@ hidden, columns = the cause found; "numbers right" as in the vmachine table
 (`examples/diagnose_confusion.rs`): frequencies within 1 % (2 % for the nonlinear mode),
 delay within 10 %, the pose-dependence rate within 20 % or 5 %/m, the right
 channel/axis of variation/kind; every true disturbance frequency found within 1 %.
+For the milled effects the answers also say how much the effect changes the noise-free
+cuts (`milling_response_change`); each such row is split by it (below / at least 10 %).
 
 Builds what it needs (`cargo build --release`), works in a temporary folder, prints a
 Markdown table; `-v` prints every miss.
@@ -80,6 +82,8 @@ def run(args):
 def lumped(seeds, random_machine, verbose, rows=ROWS, keep=None):
     table = {r: {c: 0 for c in CAUSES} for r in rows}
     right = {r: 0 for r in rows}
+    # milled effects: (cause right, how much the effect changes the noise-free cuts)
+    shown = {r: [] for r in rows}
     t0 = time.time()
     for seed in range(1, seeds + 1):
         with tempfile.TemporaryDirectory() as tmp:
@@ -102,6 +106,9 @@ def lumped(seeds, random_machine, verbose, rows=ROWS, keep=None):
                 cause, ok, got = diagnose_case(twin, os.path.join(d, "diagnose", row),
                                                answers[row], d, f"seed {seed}")
                 table[row][cause] += 1
+                change = answers[row]["details"].get("milling_response_change")
+                if change is not None:
+                    shown[row].append((cause == answers_cause(row), change))
                 if ok:
                     right[row] += 1
                 elif verbose and got is not None:
@@ -124,6 +131,15 @@ def lumped(seeds, random_machine, verbose, rows=ROWS, keep=None):
         if sel:
             ok = sum(table[r][answers_cause(r)] for r in sel)
             print(f"\n{kind} rows ({', '.join(sel)}): cause right in {ok}/{seeds * len(sel)}")
+    # the answers say how much a milled effect changes the noise-free cuts (RMS of the
+    # response without its mean, held-out part): an effect smaller than the twin's own
+    # misfit of healthy cuts cannot be told from it
+    for r in rows:
+        if shown[r]:
+            small = [ok for ok, c in shown[r] if c < 0.1]
+            large = [ok for ok, c in shown[r] if c >= 0.1]
+            print(f"\n{r}: cause right in {sum(small)}/{len(small)} where the effect changes the "
+                  f"cuts by < 10 %, {sum(large)}/{len(large)} where by >= 10 %")
     print(f"\ncause right in {correct}/{seeds * len(rows)} cases, numbers right in "
           f"{sum(right.values())}; {time.time() - t0:.0f} s\n")
 
