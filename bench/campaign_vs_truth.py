@@ -9,7 +9,7 @@ comment line; `truth/*.csv` where no loaded truth is given), as `../shared/data/
 (`cargo run --release -p lumped --example dump -- --out DIR --seed N`) do. The twin is
 identified with default options only (`mtwin identify FILES --out OUT_DIR/twin.json`,
 reused when present), evaluated with `mtwin eval` at every pose of the truth, and its xx
-and yy receptance compared with the truth between --lo and --hi (30-2500 Hz) by the fit
+and yy receptance (`--channels` for others) compared with the truth between --lo and --hi (30-2500 Hz) by the fit
 percentage `100 (1 - |t - e| / |t - mean t|)`; at measured poses also mtwin's own H1 of
 that pose's records (`mtwin frf`) against the same truth. Needs numpy (the project's
 .venv has it).
@@ -59,6 +59,8 @@ def main():
     ap.add_argument("out")
     ap.add_argument("--lo", type=float, default=30.0)
     ap.add_argument("--hi", type=float, default=2500.0)
+    ap.add_argument("--channels", default="xx,yy",
+                    help="channels compared, comma-separated (xx,yy; cross channels xy,yx)")
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
     twin = os.path.join(a.out, "twin.json")
@@ -97,7 +99,7 @@ def main():
                 subprocess.run([MTWIN, "frf", "-q"] + records + ["--out", hp], check=True)
             _, h1 = read(hp)
         line = [f"{name:4}"]
-        for c in ("xx", "yy"):
+        for c in a.channels.split(","):
             t = channel(truth, c)
             twin_fit = fit_pct(t[sel], channel(model, c))
             summary.setdefault((name[0], c), []).append(twin_fit)
