@@ -35,6 +35,12 @@ pub struct PosePlan {
     /// Number of averages of the estimate (hits, segments), when known.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub averages: Option<usize>,
+    /// Averages behind each channel's estimate (the fewest over the channels), when it
+    /// differs from `averages`: an x and a y hammer test of 5 hits each are 10 averages,
+    /// each channel's H1 rests on its own force direction's 5. The channels' noise limits
+    /// and noise-free fit estimates are computed with it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub averages_per_channel: Option<usize>,
     /// The fitted band \[Hz\].
     pub band_hz: [f64; 2],
     /// Why this band (one line per step).

@@ -648,6 +648,7 @@ pub fn identify_campaign(
                     excitation_band_hz: est.excitation_band_hz,
                     coherence_dof: est.coherence_dof,
                     averages: Some(est.hits_used),
+                    averages_per_channel: Some(est.averages_per_channel),
                     method: est.method.clone(),
                     measured_as: recs.first().and_then(|r| match r.response_kind {
                         Some(crate::timeseries::ResponseKind::Acceleration) => {
@@ -1650,11 +1651,17 @@ fn modal_consistency(f: &mut PoseFit, band: (f64, f64), power: i32) -> bool {
         if let Some(s) = f.sigma {
             w.shift_poles(-s);
         }
-        channel_fits_as(&w, &f.frf, &bands, power, f.plan.averages)
-            .into_iter()
-            .filter(|c| c.channel.output == c.channel.input)
-            .map(|c| c.fit_pct)
-            .collect::<Vec<f64>>()
+        channel_fits_as(
+            &w,
+            &f.frf,
+            &bands,
+            power,
+            f.plan.averages_per_channel.or(f.plan.averages),
+        )
+        .into_iter()
+        .filter(|c| c.channel.output == c.channel.input)
+        .map(|c| c.fit_pct)
+        .collect::<Vec<f64>>()
     };
     let before = direct(&f.model);
     let mut model = f.model.clone();
@@ -1770,7 +1777,7 @@ fn finish_campaign(
                 &f.frf,
                 &f.plan.bands(band.pose),
                 power,
-                f.plan.averages,
+                f.plan.averages_per_channel.or(f.plan.averages),
             );
             f.plan.quality_warnings = quality_warnings(f.pose, &fit, band.pose, f.plan.measured_as);
             warnings.extend(f.plan.quality_warnings.iter().cloned());

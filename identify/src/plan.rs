@@ -45,6 +45,9 @@ pub struct EstimateFacts {
     pub excitation_band_hz: Option<(f64, f64)>,
     /// Averages (hits, Welch segments, chirp periods).
     pub averages: Option<usize>,
+    /// Averages behind each channel's estimate, the fewest over the channels
+    /// ([`crate::spectra::FrfEstimate::averages_per_channel`]).
+    pub averages_per_channel: Option<usize>,
     /// Description of the estimator.
     pub method: String,
     /// What the response sensor measured, when known.
@@ -112,6 +115,9 @@ pub fn plan_pose(
     let mut plan = PosePlan {
         excitation: facts.method.clone(),
         averages: facts.averages,
+        averages_per_channel: facts
+            .averages_per_channel
+            .filter(|n| Some(*n) != facts.averages),
         measured_as: facts.measured_as,
         ..Default::default()
     };
@@ -668,6 +674,7 @@ mod tests {
         let facts = EstimateFacts {
             excitation_band_hz: Some((1.0, 900.0)),
             averages: Some(5),
+            averages_per_channel: None,
             method: "impact".into(),
             measured_as: None,
             coherence_dof: None,

@@ -196,6 +196,11 @@ pub struct FrfEstimate {
     pub warnings: Vec<String>,
     /// Number of averages used (hits for impacts, segments for Welch and chirp).
     pub hits_used: usize,
+    /// Averages behind each channel's estimate, the fewest over the channels: a channel's
+    /// H1 comes from the records of its own force direction only (an x hammer test of 5
+    /// hits and a y one of 5: `hits_used` 10, each channel 5). What its coherence's
+    /// variance and noise-only level are computed with.
+    pub averages_per_channel: usize,
     /// One line per dropped hit or record, with the reason.
     pub hits_dropped: Vec<String>,
     /// Decay \[1/s\] of the exponential window, when one was applied: the estimate equals
@@ -1619,6 +1624,7 @@ fn assemble(
     }
     let mut channels: Vec<FrfChannel> = Vec::new();
     let mut used = 0;
+    let mut per_channel = usize::MAX;
     let mut band = (0.0f64, f64::INFINITY);
     for acc in &accs {
         if let Some((lo, hi)) = acc.force_band() {
@@ -1631,6 +1637,7 @@ fn assemble(
             ));
         }
         used += acc.averages;
+        per_channel = per_channel.min(acc.averages);
         let (chans, singular) = acc.finish(ctx.opts.estimator)?;
         if singular > 0 {
             ctx.warnings.push(format!(
@@ -1678,6 +1685,11 @@ fn assemble(
         },
         warnings: std::mem::take(&mut ctx.warnings),
         hits_used: used,
+        averages_per_channel: if per_channel == usize::MAX {
+            used
+        } else {
+            per_channel
+        },
         hits_dropped: std::mem::take(&mut ctx.dropped),
         exp_window_sigma: sigma,
         method,
