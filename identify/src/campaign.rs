@@ -1453,14 +1453,6 @@ fn local_modes(fits: &mut [PoseFit]) -> Result<Vec<String>> {
                 hz * RESIDUAL_BAND_FACTOR >= band.0
                     && hz <= RESIDUAL_BAND_FACTOR * band.1
                     && o.zeta <= RESIDUAL_ZETA
-                    // nor a mode whose damping the data could not tell (fitted within
-                    // the exponential window's, [`repair_window_damping`]): its numerators
-                    // solved in the windowed domain, its peak after the window's removal
-                    // is a guess (second generator's campaign, dump 1: a 91.6 Hz mode at
-                    // 0.92 % added at pose (0.1, 0.3, 0.25) where the truth holds an
-                    // 89.6 Hz mode at 5.3 %; the twin's xx 4.5 times the truth there,
-                    // 30-2500 Hz vs the truth 77.1 %, without it 80.9 %)
-                    && !f.sigma.is_some_and(|s| window_repaired(o, s))
                     && f.model
                         .modes
                         .iter()
@@ -3095,14 +3087,6 @@ fn repair_window_damping(model: &mut ModalModel, sigma: f64) -> Vec<String> {
     out
 }
 
-/// Whether `mode` carries the damping [`repair_window_damping`] gives a mode fitted
-/// within an exponential window of decay `sigma`: its damping is a guess, not a measured
-/// value.
-fn window_repaired(mode: &crate::model::Mode, sigma: f64) -> bool {
-    let guess = (0.5 * sigma / mode.wn).clamp(MIN_REPAIRED_DAMPING, 0.2);
-    (mode.zeta - guess).abs() <= 1e-9 * guess
-}
-
 /// One warning per channel whose model fits its measured FRF in `band` worse than
 /// [`QUALITY_WARNING_BELOW`], saying what to try.
 fn quality_warnings(
@@ -3215,25 +3199,6 @@ mod window_repair_tests {
 
     /// A mode whose fitted damping (1 %) is below the exponential window's (2 %): after
     /// the window is removed it gets half the window's damping, stays loadable and warns.
-    /// A mode given half the window's damping is known as repaired; a fitted one is not.
-    #[test]
-    fn a_repaired_mode_is_told_from_a_fitted_one() {
-        let wn = 2.0 * std::f64::consts::PI * 90.0;
-        let sigma = 0.018 * wn;
-        let mut model = ModalModel {
-            modes: vec![Mode::from_hz(90.0, 0.01), Mode::from_hz(300.0, 0.03)],
-            channels: vec![ChannelModel {
-                channel: Channel::new(Axis::X, Axis::X),
-                num: vec![ModeNum { b0: 1.0, b1: 0.0 }; 2],
-                d: 0.0,
-            }],
-        };
-        model.shift_poles(sigma);
-        assert_eq!(repair_window_damping(&mut model, sigma).len(), 1);
-        assert!(window_repaired(&model.modes[0], sigma));
-        assert!(!window_repaired(&model.modes[1], sigma));
-    }
-
     #[test]
     fn a_mode_under_the_window_gets_half_its_damping() {
         let wn = 2.0 * std::f64::consts::PI * 100.0;
