@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """A campaign's twin against the analytic truth of a data set in the tryout form.
 
-    python bench/campaign_vs_truth.py DATA_DIR OUT_DIR [--lo HZ] [--hi HZ]
+    python bench/campaign_vs_truth.py DATA_DIR OUT_DIR [--lo HZ] [--hi HZ] [--split HZ]
 
 DATA_DIR holds `campaign/*.csv` (impact records per pose, `gNN_x.csv`, `gNN_y.csv`) and
 `truth/*_loaded.csv` (analytic receptance with the sensor's mass, the pose in its first
@@ -11,7 +11,8 @@ identified with default options only (`mtwin identify FILES --out OUT_DIR/twin.j
 reused when present), evaluated with `mtwin eval` at every pose of the truth, and its xx
 and yy receptance (`--channels` for others) compared with the truth between --lo and --hi (30-2500 Hz) by the fit
 percentage `100 (1 - |t - e| / |t - mean t|)`; at measured poses also mtwin's own H1 of
-that pose's records (`mtwin frf`) against the same truth. Needs numpy (the project's
+that pose's records (`mtwin frf`) against the same truth. `--split HZ` adds the summary
+below and above HZ (each part scored on its own lines). Needs numpy (the project's
 .venv has it).
 """
 import argparse
@@ -59,6 +60,9 @@ def main():
     ap.add_argument("out")
     ap.add_argument("--lo", type=float, default=30.0)
     ap.add_argument("--hi", type=float, default=2500.0)
+    ap.add_argument("--split", type=float, default=None,
+                    help="also summarise the fits below and above this frequency [Hz] "
+                         "(where the twin's error lies: e.g. the band edge)")
     ap.add_argument("--channels", default="xx,yy",
                     help="channels compared, comma-separated (xx,yy; cross channels xy,yx)")
     a = ap.parse_args()
@@ -103,6 +107,12 @@ def main():
             t = channel(truth, c)
             twin_fit = fit_pct(t[sel], channel(model, c))
             summary.setdefault((name[0], c), []).append(twin_fit)
+            if a.split is not None:
+                fs = f[sel]
+                for part, m in (("below", fs < a.split), ("above", fs >= a.split)):
+                    if m.sum() > 2:
+                        summary.setdefault((name[0], c, part), []).append(
+                            fit_pct(t[sel][m], channel(model, c)[m]))
             text = f"{c} twin {twin_fit:7.2f} %"
             if h1 is not None:
                 fh = np.array([float(r["f_hz"]) for r in h1])
@@ -110,10 +120,16 @@ def main():
                 text += f" (own H1 {fit_pct(on(fh[hs], f, t), channel(h1, c)[hs]):7.2f} %)"
             line.append(text)
         print("  ".join(line))
-    for (kind, c), v in sorted(summary.items()):
+    part_order = {"below": 1, "above": 2}
+    for key, v in sorted(summary.items(),
+                         key=lambda kv: (kv[0][0], kv[0][1], part_order.get(kv[0][-1], 0))):
+        kind, c = key[0], key[1]
         what = "measured" if kind == "g" else "unmeasured"
+        span = f"{a.lo:g}-{a.hi:g} Hz"
+        if len(key) == 3:
+            span = f"{a.lo:g}-{a.split:g} Hz" if key[2] == "below" else f"{a.split:g}-{a.hi:g} Hz"
         print(f"{what} poses {c}: mean {np.mean(v):.2f} %, worst {np.min(v):.2f} % "
-              f"({a.lo:g}-{a.hi:g} Hz, {len(v)} poses)")
+              f"({span}, {len(v)} poses)")
 
 
 if __name__ == "__main__":
