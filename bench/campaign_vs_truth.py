@@ -105,14 +105,14 @@ def main():
         line = [f"{name:4}"]
         for c in a.channels.split(","):
             t = channel(truth, c)
-            twin_fit = fit_pct(t[sel], channel(model, c))
+            ts, e = t[sel], channel(model, c)
+            twin_fit = fit_pct(ts, e)
             summary.setdefault((name[0], c), []).append(twin_fit)
             if a.split is not None:
                 fs = f[sel]
                 for part, m in (("below", fs < a.split), ("above", fs >= a.split)):
                     if m.sum() > 2:
-                        summary.setdefault((name[0], c, part), []).append(
-                            fit_pct(t[sel][m], channel(model, c)[m]))
+                        summary.setdefault((name[0], c, part), []).append(fit_pct(ts[m], e[m]))
             text = f"{c} twin {twin_fit:7.2f} %"
             if h1 is not None:
                 fh = np.array([float(r["f_hz"]) for r in h1])
