@@ -166,6 +166,14 @@ impl ModalModel {
         h
     }
 
+    /// Magnitude of mode `k`'s own term in channel `ci` at its natural frequency,
+    /// `|b0 + jωn b1| / |den(jωn)|`: the mode's resonance peak in that channel.
+    pub fn mode_peak(&self, ci: usize, k: usize) -> f64 {
+        let (md, n) = (self.modes[k], self.channels[ci].num[k]);
+        let s = Complex64::new(0.0, md.wn);
+        (Complex64::new(n.b0, 0.0) + s * n.b1).norm() / md.den(s).norm()
+    }
+
     /// Receptance of channel `ci` at frequency `f_hz`.
     pub fn eval_hz(&self, ci: usize, f_hz: f64) -> Complex64 {
         self.eval_s(ci, Complex64::new(0.0, 2.0 * PI * f_hz))

@@ -1,11 +1,10 @@
 //! The modes of a twin at a pose (interpolated as `mtwin eval` does): frequency, damping
-//! and each channel's peak contribution `|N(jωn)| / |den(jωn)|` (the mode's receptance at
-//! its own frequency), to see what the interpolation makes of tracked and frozen modes.
+//! and each channel's peak (`ModalModel::mode_peak`: the mode's receptance at its own
+//! frequency), to see what the interpolation makes of tracked and frozen modes.
 //!
 //! Run: `cargo run --release -p identify --example twin_modes -- TWIN.json X,Y,Z [FMIN FMAX]`
 
 use identify::twin::Twin;
-use num_complex::Complex64;
 
 fn main() {
     let a: Vec<String> = std::env::args().collect();
@@ -19,18 +18,12 @@ fn main() {
         if f < lo || f > hi {
             continue;
         }
-        let s = Complex64::new(0.0, md.wn);
-        let peaks: Vec<String> = m
-            .channels
-            .iter()
-            .map(|c| {
-                let n = c.num[k];
-                let v = (Complex64::new(n.b0, 0.0) + s * n.b1) / md.den(s);
+        let peaks: Vec<String> = (0..m.channels.len())
+            .map(|ci| {
                 format!(
-                    "{} {:.2e} {:+4.0}°",
-                    c.channel.name(),
-                    v.norm(),
-                    v.arg().to_degrees()
+                    "{} {:.2e}",
+                    m.channels[ci].channel.name(),
+                    m.mode_peak(ci, k)
                 )
             })
             .collect();

@@ -1962,13 +1962,7 @@ fn assign_by_trends(fits: &mut [PoseFit], own: &[ModalModel]) -> Vec<String> {
     let ln_zeta = |mm: &ModalModel, k: usize| mm.modes[k].zeta.max(1e-6).ln();
     // the mode's resonance peak summed over the channels (its modal flexibility)
     let ln_peak = |mm: &ModalModel, k: usize| {
-        let md = mm.modes[k];
-        let s = Complex64::new(0.0, md.wn);
-        let p: f64 = mm
-            .channels
-            .iter()
-            .map(|c| (Complex64::new(c.num[k].b0, 0.0) + s * c.num[k].b1).norm() / md.den(s).norm())
-            .sum();
+        let p: f64 = (0..mm.channels.len()).map(|ci| mm.mode_peak(ci, k)).sum();
         p.max(1e-300).ln()
     };
     // starts: each pose's modes in frequency order, the tracking's order, and the

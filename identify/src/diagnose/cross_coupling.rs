@@ -104,11 +104,8 @@ pub(super) fn cand_cross_coupling(twin: &Twin, model: &ModalModel, pts: &[Points
         .map(|(modes, r)| {
             // the mode of the pair with the larger response in that channel
             let cross = |k: usize| {
-                r.channel_index(p.channel).map_or(0.0, |ci| {
-                    let (md, nm) = (r.modes[k], r.channels[ci].num[k]);
-                    let s = num_complex::Complex64::new(0.0, md.wn);
-                    (num_complex::Complex64::new(nm.b0, 0.0) + s * nm.b1).norm() / md.den(s).norm()
-                })
+                r.channel_index(p.channel)
+                    .map_or(0.0, |ci| r.mode_peak(ci, k))
             };
             let named = modes
                 .iter()
@@ -555,11 +552,8 @@ pub(super) fn cand_cross_coupling_time(
         .max_by(|a, b| force_of(a.input).total_cmp(&force_of(b.input)))?;
     // of a pair, the mode named is the one with the larger resonance in that channel
     let cross = |i: usize| {
-        new.channel_index(channel).map_or(0.0, |ci| {
-            let (md, nm) = (new.modes[i], new.channels[ci].num[i]);
-            let s = num_complex::Complex64::new(0.0, md.wn);
-            (num_complex::Complex64::new(nm.b0, 0.0) + s * nm.b1).norm() / md.den(s).norm()
-        })
+        new.channel_index(channel)
+            .map_or(0.0, |ci| new.mode_peak(ci, i))
     };
     let k = match t.j {
         Some(j) if cross(j) > cross(t.k) => j,

@@ -7,7 +7,6 @@ use crate::axis::Channel;
 use crate::modal_update::{chi, Points};
 use crate::model::ModalModel;
 use crate::twin::Twin;
-use num_complex::Complex64;
 use serde_json::{json, Map};
 
 /// The mode whose retune fits `pts` best: (χ after, its index, the retuned model). Each
@@ -277,9 +276,8 @@ fn turned_mode(old: &ModalModel, new: &ModalModel, k: usize) -> Option<(Channel,
     }
     // the mode's response at its own resonance in each channel
     let peak = |m: &ModalModel, c: &crate::model::ChannelModel| {
-        let md = m.modes[k];
-        let s = Complex64::new(0.0, md.wn);
-        (Complex64::new(c.num[k].b0, 0.0) + s * c.num[k].b1).norm() / md.den(s).norm()
+        m.channel_index(c.channel)
+            .map_or(0.0, |ci| m.mode_peak(ci, k))
     };
     let direct = new
         .channels
