@@ -2798,6 +2798,16 @@ fn fit_pose(
     {
         plan.alternatives.push(format!("{best_name}: {why}"));
     }
+    let power = plan.measured_as.map_or(0, |m| m.power());
+    if let Some(why) = guards
+        .as_ref()
+        .and_then(|g| repair_unseen_peaks(g, &mut best, frf, &best_options, power, &score))
+    {
+        plan.alternatives.push(format!("{best_name}: {why}"));
+    }
+    if let Some(why) = repair_held_channels(&mut best, frf, &best_options, &plan, steer) {
+        plan.alternatives.push(format!("{best_name}: {why}"));
+    }
     if !plan.alternatives.is_empty() {
         plan.alternatives.insert(
             0,
@@ -2809,6 +2819,203 @@ fn fit_pose(
     }
     Ok((best, plan))
 }
+
+/// Each in-band mode of `best` whose peak falls between the lines and none of them shows
+/// ([`crate::guards::ModelGuards::unseen_peaks`]) is either given the damping of a one-line
+/// half-power band (`ζ = Δf / 2f`, the narrowest the lines resolve) or removed, whichever
+/// scores better with the numerators solved again for the poles left, when that costs at
+/// most [`crate::guards::UNSEEN_PEAK_FIT_LOSS`] points of the candidate's score and of
+/// each channel's fit over the band (as receptance and as measured, `(jω)^power`). Its
+/// height was set by a damping no line fixes, and a time simulation of the twin rings
+/// with it for seconds. A real lightly damped mode whose skirts the lines beside it hold
+/// costs more and is kept (the pyuff free-free beam's 51.5 Hz mode at 0.05 %: 5.9-6.2
+/// points). Says what it changed.
+fn repair_unseen_peaks(
+    g: &crate::guards::ModelGuards,
+    best: &mut crate::rational_fit::FitResult,
+    frf: &Frf,
+    options: &FitOptions,
+    power: i32,
+    score: &dyn Fn(&crate::rational_fit::FitResult) -> (f64, f64),
+) -> Option<String> {
+    let mut notes = Vec::new();
+    // from the highest index down: a removal does not move the modes still to repair
+    let mut unseen = g.unseen_peaks(&best.model);
+    unseen.reverse();
+    for k in unseen {
+        let md = best.model.modes[k];
+        let (hz, z0) = (md.freq_hz(), md.zeta);
+        let w = crate::rational_fit::weights(frf, options);
+        let solved = |m: ModalModel| -> Option<crate::rational_fit::FitResult> {
+            let model = crate::rational_fit::solve_numerators(&m, frf, &w, options).ok()?;
+            (model.is_valid()).then(|| crate::rational_fit::FitResult {
+                model,
+                ..best.clone()
+            })
+        };
+        let mut damped = best.model.clone();
+        damped.modes[k].zeta = (g.line_spacing() / (2.0 * hz)).clamp(z0, 1.0);
+        let mut removed = best.model.clone();
+        removed.modes.remove(k);
+        for c in removed.channels.iter_mut() {
+            c.num.remove(k);
+        }
+        let options: Vec<(&str, crate::rational_fit::FitResult)> = [
+            ("damped to a one-line half-power band", solved(damped)),
+            ("removed", solved(removed)),
+        ]
+        .into_iter()
+        .filter_map(|(what, r)| r.map(|r| (what, r)))
+        .collect();
+        let Some((what, r, s)) = options
+            .into_iter()
+            .map(|(what, r)| {
+                let s = score(&r);
+                (what, r, s)
+            })
+            .max_by(|a, b| a.2 .0.total_cmp(&b.2 .0))
+        else {
+            continue;
+        };
+        let before = score(best);
+        // the loss in the candidate's score (each octave alike) and in each channel's fit
+        // over the band (where the largest peaks weigh most), as receptance and as measured
+        let band_fits =
+            |m: &ModalModel, p: i32| channel_fits_as(m, frf, &Bands::whole(g.band()), p, None);
+        let band_loss = [0, power]
+            .iter()
+            .flat_map(|&p| {
+                band_fits(&best.model, p)
+                    .into_iter()
+                    .zip(band_fits(&r.model, p))
+                    .map(|(a, b)| a.fit_pct - b.fit_pct)
+                    .collect::<Vec<_>>()
+            })
+            .fold(0.0, f64::max);
+        let loss = (before.0 - s.0).max(band_loss);
+        if !(loss <= crate::guards::UNSEEN_PEAK_FIT_LOSS) {
+            notes.push(format!(
+                "the mode at {hz:.1} Hz ({:.4} %) kept as fitted: its peak stands between \
+                 the lines, but the lines beside it hold it (the best repair, {what}, \
+                 costs {loss:.2} points of fit)",
+                100.0 * z0,
+            ));
+            continue;
+        }
+        notes.push(format!(
+            "the mode at {hz:.1} Hz ({:.4} %) {what}, numerators solved again (its peak \
+             between the lines stood at least {} times above every line within two \
+             spacings; mean fit {:.2} -> {:.2} %)",
+            100.0 * z0,
+            crate::guards::UNSEEN_PEAK_RATIO,
+            before.0,
+            s.0
+        ));
+        *best = r;
+    }
+    (!notes.is_empty()).then(|| notes.join("; "))
+}
+
+/// A held channel of a single pose (its numerators fitted with the poles of the steering
+/// channels held, [`crate::rational_fit::fit_frf_steered`]) whose fit to its own FRF in
+/// its trusted band falls short of what that FRF's noise allows by more than
+/// [`NOISE_LIMIT_MARGIN`]: its numerators are solved again, poles held, under each
+/// weighting the fit knows (the pose's weighting served the steering channels); the best
+/// fit in the trusted band (as measured) is kept when it gains [`HELD_REPAIR_MIN_GAIN`]
+/// points and the channel does not run away over the pose band. The poles and every
+/// other channel stay as they are. (Second generator, seed 9: the `zx` of a centre twin
+/// at −190 % of its measured accelerance in 138-2300 Hz, whose noise allows 74 %; solved
+/// again under the balanced weighting 58.6 %, and vs the analytic truth over 30-2500 Hz
+/// 17.1 → 40.5 % as receptance. Weighing the lines outside the trusted band ten times less
+/// fitted the trusted band better but lost the receptance below it: seed 18, 34.6 →
+/// 13.2 %.) Says what it changed.
+fn repair_held_channels(
+    best: &mut crate::rational_fit::FitResult,
+    frf: &Frf,
+    options: &FitOptions,
+    plan: &PosePlan,
+    steer: &[crate::axis::Channel],
+) -> Option<String> {
+    let power = plan.measured_as.map_or(0, |m| m.power());
+    let pose_band = band_of(frf, options);
+    let bands = plan.bands(pose_band.pose);
+    let averages = plan.averages;
+    let fits = |m: &ModalModel, b: &Bands| channel_fits_as(m, frf, b, power, averages);
+    let mut notes = Vec::new();
+    for (ci, c) in frf.channels.iter().enumerate() {
+        if steer.contains(&c.channel) || best.model.channel_index(c.channel) != Some(ci) {
+            continue;
+        }
+        let Some([lo, hi]) = bands.own(c.channel) else {
+            continue;
+        };
+        let Some(before) = fits(&best.model, &bands)
+            .into_iter()
+            .find(|f| f.channel == c.channel)
+        else {
+            continue;
+        };
+        let Some(limit) = before.noise_limit_pct else {
+            continue;
+        };
+        if !(before.fit_pct < limit - NOISE_LIMIT_MARGIN) {
+            continue;
+        }
+        let whole = |m: &ModalModel| {
+            fits(m, &Bands::whole(pose_band.pose))
+                .into_iter()
+                .find(|f| f.channel == c.channel)
+                .map_or(f64::NEG_INFINITY, |f| f.fit_pct)
+        };
+        let mut found: Option<(f64, ModalModel, &str)> = None;
+        for (name, weighting) in [
+            ("coherence", Weighting::Coherence),
+            ("balanced", Weighting::Balanced),
+            ("mobility", Weighting::Mobility),
+            ("inverse-variance", Weighting::InverseVariance),
+        ] {
+            let o = FitOptions {
+                weighting,
+                ..options.clone()
+            };
+            let w = crate::rational_fit::weights(frf, &o);
+            let Ok(m) = crate::rational_fit::solve_numerators(&best.model, frf, &w, &o) else {
+                continue;
+            };
+            let mut cand = best.model.clone();
+            cand.channels[ci] = m.channels[ci].clone();
+            if !cand.is_valid() || whole(&cand) < HELD_RUNAWAY_PCT {
+                continue;
+            }
+            let Some(after) = fits(&cand, &bands)
+                .into_iter()
+                .find(|f| f.channel == c.channel)
+            else {
+                continue;
+            };
+            if found.as_ref().is_none_or(|(a, _, _)| after.fit_pct > *a) {
+                found = Some((after.fit_pct, cand, name));
+            }
+        }
+        if let Some((after, cand, name)) = found {
+            if after >= before.fit_pct + HELD_REPAIR_MIN_GAIN {
+                notes.push(format!(
+                    "{}: numerators solved again with the poles held ({name} weighting): \
+                     fit in its trusted {lo:.0}-{hi:.0} Hz {:.1} -> {after:.1} % (its \
+                     noise allows {limit:.1} %)",
+                    c.channel, before.fit_pct
+                ));
+                best.model = cand;
+            }
+        }
+    }
+    (!notes.is_empty()).then(|| notes.join("; "))
+}
+
+/// Points of fit in its trusted band a held channel's repair must gain to be kept.
+const HELD_REPAIR_MIN_GAIN: f64 = 1.0;
+/// Fit over the pose band \[%\] below which a repaired held channel has run away.
+const HELD_RUNAWAY_PCT: f64 = -100.0;
 
 /// The force axes of `frf`'s channels, in axis order.
 fn input_axes(frf: &Frf) -> Vec<crate::axis::Axis> {

@@ -204,6 +204,138 @@ fn twin_vs_loaded_truth(
     identify::frf::fit_percent(&t, &e)
 }
 
+/// One-pose twins from two centre impact tests whose hits come 0.29 s apart (lines
+/// 3.4 Hz apart; `cases --seed 13 --centre-only --centre-noise 0.1`, an accelerometer
+/// 20 dB quieter, and `cases --seed 9`), judged against the truth on a 0.25 Hz grid (xx
+/// and yy, 30-2500 Hz). Seed 13's fit held a mode with 0.001 % damping inside its band,
+/// between two lines (39.5 Hz), whose peak stood 1000 times above the lines around it:
+/// fit to the measured lines 98 %, to the truth −133 %. Seed 9's first fit held one at
+/// 73.8 Hz (0.014 %), and the hits separated over its poles left xx at 46 %. Identify
+/// gives such a mode the damping of one line's width or removes it, whichever fits the
+/// data better (when that costs the lines at most a point): 97.5 / 97.3 % and
+/// 86.3 / 86.7 %.
+#[test]
+fn lumped_one_pose_twin_holds_no_peak_between_the_lines() {
+    let dir = tmp();
+    let machine = Machine::nominal();
+    for (seed, noise, least) in [(13u64, 0.1, 90.0), (9, 1.0, 80.0)] {
+        let (files, setup) = centre_impacts(dir.path(), &machine, seed, noise);
+        let twin = identify_quietly(&files, &dir.path().join(format!("s{seed}.json")));
+        let m = twin.model_at(CENTRE).expect("model at the centre");
+        let freqs = lumped::frf::linspace(30.0, 2500.0, 9881);
+        let truth = machine.analytic_frf_loaded(CENTRE, &freqs, setup.tip_mass);
+        for (c, (out, inp)) in [("xx", (0, 0)), ("yy", (1, 1))] {
+            let ci = m
+                .channel_index(identify::axis::Channel {
+                    output: [identify::axis::Axis::X, identify::axis::Axis::Y][out],
+                    input: [identify::axis::Axis::X, identify::axis::Axis::Y][inp],
+                })
+                .expect("channel");
+            let e: Vec<_> = freqs.iter().map(|&f| m.eval_hz(ci, f)).collect();
+            let fit = identify::frf::fit_percent(&truth.channel(out, inp), &e);
+            println!("seed {seed}, accelerometer noise x{noise}: {c} vs truth {fit:.2} %");
+            assert!(fit >= least, "seed {seed} {c}: {fit:.2} % vs the truth");
+        }
+    }
+}
+
+/// A held channel (one pose; its numerators fitted with the poles of the direct channels
+/// held) that fits its own FRF far below what the FRF's noise allows is solved again
+/// under the other weightings, poles held. Second generator, effect seed 9's centre
+/// impact test: `zx`, trusted in 138-2300 Hz, fitted its measured accelerance there at
+/// −190.4 % (noise limit 74.4 %) and the analytic truth over 30-2500 Hz at 17.1 % as
+/// receptance; now 58.6 % and 40.5 %.
+#[test]
+fn lumped_held_cross_channel_is_solved_again_when_far_below_its_noise() {
+    let dir = tmp();
+    let machine = Machine::nominal();
+    let (_, twin) = centre_twin(dir.path(), &machine, 9 * 1000 + 700);
+    let twin = identify::twin::Twin::load(&twin).expect("twin loads");
+    let zx = identify::axis::Channel {
+        output: identify::axis::Axis::Z,
+        input: identify::axis::Axis::X,
+    };
+    let own = twin.poses[0]
+        .fit
+        .iter()
+        .find(|f| f.channel == zx)
+        .expect("the twin holds zx");
+    println!(
+        "zx fits its own FRF at {:.2} % (noise limit {:?})",
+        own.fit_pct, own.noise_limit_pct
+    );
+    assert!(
+        own.fit_pct >= 50.0,
+        "zx {:.2} % of its own FRF",
+        own.fit_pct
+    );
+    let m = twin.model_at(CENTRE).expect("model at the centre");
+    let ci = m.channel_index(zx).expect("zx");
+    let freqs = lumped::frf::linspace(30.0, 2500.0, 4941);
+    let truth = machine.analytic_frf_loaded(CENTRE, &freqs, Setup::impact().tip_mass);
+    let e: Vec<_> = freqs.iter().map(|&f| m.eval_hz(ci, f)).collect();
+    let fit = identify::frf::fit_percent(&truth.channel(2, 0), &e);
+    println!("zx vs the truth (receptance, 30-2500 Hz): {fit:.2} %");
+    assert!(fit >= 30.0, "zx {fit:.2} % vs the truth");
+}
+
+/// A one-pose twin from a sensor 20 dB quieter than the one that records the new data
+/// (second generator, accelerometer noise ×0.1 for the twin's centre impact test), and
+/// healthy hits at three force levels (the cubic-joint case's linear control) at effect
+/// seeds 4, 11 and 12: `none`. The twin is sounder than the data, so their noise must not
+/// pass for a misfit. Before, each was `unexplained`: seed 4's twin holds its `xy` and
+/// `zy` as models of noise (fit to its own FRF −1.4 and −0.3 %), against which the data's
+/// noise-level lines that pass the coherence threshold by chance (4 averages) were 5–7 σ
+/// (local misfit 4.1 σ > 3); seeds 11 and 12 had such chance lines in `yy` near an
+/// antiresonance and in `zx` (local 3.2 and 3.4 σ). A channel the twin fits no better
+/// than zero now counts as one it holds empty, and a few hits' standard error takes the
+/// median coherence of the line and its two neighbours.
+#[test]
+fn lumped_twin_from_a_quieter_sensor_calls_healthy_hits_none() {
+    let machine = Machine::nominal();
+    for seed in [4u64, 11, 12] {
+        let dir = tmp();
+        let (files, _) = centre_impacts(dir.path(), &machine, seed, 0.1);
+        let twin = dir.path().join("twin.json");
+        identify_quietly(&files, &twin);
+        let control = CaseOptions {
+            linear_control: true,
+            ..CaseOptions::default()
+        };
+        let c = case_with(&machine, Effect::Nonlinearity, seed, &control);
+        let data = write_records(dir.path(), &c);
+        let d = diagnose(&twin, &data, &dir.path().join("out"));
+        eprintln!("seed {seed}: {} {}", d["cause"], d["details"]);
+        assert_eq!(d["cause"], "none", "seed {seed}: healthy hits named {d}");
+    }
+}
+
+/// Effect seed `seed`'s healthy centre impact test (hammer along x and along y, 5 hits
+/// each, as `lumped::effects::write_diagnosis_material` makes it) with the accelerometer's
+/// noise (white and 1/f) scaled by `noise`, written to `dir`: (the files, the setup).
+fn centre_impacts(dir: &Path, machine: &Machine, seed: u64, noise: f64) -> (Vec<PathBuf>, Setup) {
+    let mut setup = Setup::impact();
+    setup.response_noise.white *= noise;
+    setup.response_noise.pink *= noise;
+    let mut files = Vec::new();
+    for (a, name) in [(0usize, "x"), (1, "y")] {
+        let p = dir.join(format!("s{seed}_imp_{name}.csv"));
+        impact_record(
+            machine,
+            &setup,
+            CENTRE,
+            a,
+            5,
+            2.0,
+            seed * 1000 + 700 + a as u64,
+        )
+        .write_csv(&p)
+        .expect("write");
+        files.push(p);
+    }
+    (files, setup)
+}
+
 /// `mtwin identify -q FILES --out OUT` with the defaults, which must succeed: the twin.
 fn identify_quietly(files: &[PathBuf], out: &Path) -> identify::twin::Twin {
     let mut args = vec!["identify", "-q"];
