@@ -55,6 +55,81 @@ pub fn impact(modes: &[Mode], axis: usize, delay: f64, rng: &mut StdRng) -> [Vec
     out
 }
 
+/// Samples of an impact record at three force levels (3.6 s, as the tryout's).
+pub const N_LEVELS: usize = 36864;
+
+/// An impact record at three force levels (the tryout's `stiffening_joint` form: three
+/// hits each of about 100, 400 and 1000 N, 0.4 s apart, each ±10 ms off its slot, so
+/// the hits' records differ in length), hammer along `axis`. `cubic`: mode `k` of
+/// `modes` gets a cubic spring that raises its frequency by `shift` (relative) on the
+/// backbone at the peak amplitude of a 1000 N hit; that mode is integrated in time
+/// (fourth-order Runge–Kutta, 16 steps per sample, the force linear between samples),
+/// the others are the exact convolution. Same sensor noise as [`impact`].
+pub fn impact_levels(
+    modes: &[Mode],
+    axis: usize,
+    cubic: Option<(usize, f64)>,
+    rng: &mut StdRng,
+) -> [Vec<f64>; 6] {
+    let n = N_LEVELS;
+    let mut force = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
+    for h in 0..9 {
+        let start = ((0.06 + h as f64 * 0.4 + rng.gen_range(-0.01..0.01)) * FS) as usize;
+        let width = rng.gen_range(3..6);
+        let amp = [100.0, 400.0, 1000.0][h / 3] * rng.gen_range(0.85..1.15);
+        for j in 0..width {
+            force[axis][start + j] += amp * (PI * (j as f64 + 0.5) / width as f64).sin();
+        }
+    }
+    let linear: Vec<Mode> = (modes.iter().enumerate())
+        .filter(|(k, _)| cubic.is_none_or(|(c, _)| c != *k))
+        .map(|(_, m)| m.clone())
+        .collect();
+    let mut out = responses(&linear, &force, 0.0);
+    if let Some((k, shift)) = cubic {
+        let m = &modes[k];
+        let wn = 2.0 * PI * m.f0;
+        let mass = m.k / (wn * wn);
+        let c = 2.0 * m.zeta * wn * mass;
+        // the peak amplitude of a 1000 N, 4-sample half-sine hit, and the cubic stiffness
+        // whose backbone w² = wn² (1 + 3/4 k3 A² / k) is `shift` higher there
+        let amp = 1000.0 * 4.0 / FS * 2.0 / PI / (mass * wn);
+        let k3 = ((1.0 + shift).powi(2) - 1.0) * m.k * 4.0 / 3.0 / (amp * amp);
+        let p: Vec<f64> = (0..n)
+            .map(|i| (0..3).map(|a| m.d[a] * force[a][i]).sum())
+            .collect();
+        let acc = |q: f64, qd: f64, f: f64| (f - c * qd - m.k * q - k3 * q * q * q) / mass;
+        let sub = 16;
+        let h = 1.0 / (FS * sub as f64);
+        let (mut q, mut qd) = (0.0f64, 0.0f64);
+        for i in 0..n {
+            let (f0, f1) = (p[i], p[(i + 1).min(n - 1)]);
+            let qdd = acc(q, qd, f0);
+            for (o, col) in out.iter_mut().skip(3).enumerate() {
+                col[i] += m.d[o] * qdd;
+            }
+            for j in 0..sub {
+                let at = |x: f64| f0 + (f1 - f0) * (j as f64 + x) / sub as f64;
+                let (fa, fb, fc) = (at(0.0), at(0.5), at(1.0));
+                let k1 = (qd, acc(q, qd, fa));
+                let k2 = (
+                    qd + h / 2.0 * k1.1,
+                    acc(q + h / 2.0 * k1.0, qd + h / 2.0 * k1.1, fb),
+                );
+                let k3_ = (
+                    qd + h / 2.0 * k2.1,
+                    acc(q + h / 2.0 * k2.0, qd + h / 2.0 * k2.1, fb),
+                );
+                let k4 = (qd + h * k3_.1, acc(q + h * k3_.0, qd + h * k3_.1, fc));
+                q += h / 6.0 * (k1.0 + 2.0 * k2.0 + 2.0 * k3_.0 + k4.0);
+                qd += h / 6.0 * (k1.1 + 2.0 * k2.1 + 2.0 * k3_.1 + k4.1);
+            }
+        }
+    }
+    add_sensor_noise(&mut out, force, rng);
+    out
+}
+
 /// Writes an impact record (time-series CSV) at `pose`.
 pub fn write(path: &Path, axis: usize, cols: &[Vec<f64>; 6], pose: [f64; 3]) {
     let what = format!("impact test, hammer along {}", AXES[axis]);
