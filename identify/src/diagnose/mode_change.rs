@@ -358,10 +358,11 @@ pub(super) fn cand_mode_change_time(
 
         super::trace(|| {
             format!(
-                "  time retune [{k}] ({:.1} Hz): residual {:.4} -> {:.4}, x{:.4} Hz, x{:.2} damping, twin data fit drop {drop:.2}, force share there {forced:.1e}",
+                "  time retune [{k}] ({:.1} Hz): residual {:.4} -> {:.4} ({:.1} % less), x{:.4} Hz, x{:.2} damping, twin data fit drop {drop:.2}, force share there {forced:.1e}",
                 model.modes[k].freq_hz(),
                 r0 / fit.power,
                 top.0 / fit.power,
+                100.0 * (1.0 - top.0 / r0),
                 top.1,
                 top.2
             )
