@@ -44,11 +44,31 @@ fn machine() -> Vec<Mode> {
         .collect()
 }
 
+/// A temporary folder and, in it, the twin the defaults identify from the tryout
+/// campaign.
+fn campaign_twin() -> (tempfile::TempDir, PathBuf) {
+    let dir = tmp();
+    let twin = dir.path().join("twin.json");
+    let campaign = shared_data().join("tryout_gantry/campaign");
+    let o = mtwin(&["identify", "-q", s(&campaign), "--out", s(&twin)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    (dir, twin)
+}
+
+/// The indices of the pure x or y modes of `base`.
+fn pure_modes(base: &[Mode]) -> Vec<usize> {
+    (0..base.len())
+        .filter(|&i| base[i].d[0].abs().max(base[i].d[1].abs()) > 0.99)
+        .collect()
+}
+
+/// A case at three force levels: (folder name, hammer axis, cubic mode and its shift,
+/// answer).
+type LevelCase = (String, usize, Option<(usize, f64)>, Value);
+
 /// The cases of one seed: (folder name, modes, delay in samples, SPEC answer).
 fn cases(base: &[Mode], rng: &mut StdRng) -> Vec<(&'static str, Vec<Mode>, f64, Value)> {
-    let pure: Vec<usize> = (0..base.len())
-        .filter(|&i| base[i].d[0].abs().max(base[i].d[1].abs()) > 0.99)
-        .collect();
+    let pure = pure_modes(base);
     let mut out = vec![("healthy", base.to_vec(), 0.0, json!({"cause": "none"}))];
     // a pure x or y mode turned 15-30 degrees towards the other axis
     let i = pure[rng.gen_range(0..pure.len())];
@@ -123,11 +143,7 @@ fn within(a: Option<f64>, b: Option<f64>, rel: f64) -> bool {
 
 #[test]
 fn tryout_truth_with_hidden_effects_is_diagnosed() {
-    let dir = tmp();
-    let twin = dir.path().join("twin.json");
-    let campaign = shared_data().join("tryout_gantry/campaign");
-    let o = mtwin(&["identify", "-q", s(&campaign), "--out", s(&twin)]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    let (dir, twin) = campaign_twin();
     diagnose_hidden(&dir, &twin, 1..=3);
 }
 
@@ -206,22 +222,16 @@ fn diagnose_hidden(
 #[test]
 fn tryout_truth_hit_at_three_force_levels_is_linear_unless_a_mode_hardens() {
     use crate::common::modal::impact_levels;
-    let dir = tmp();
-    let twin = dir.path().join("twin.json");
-    let campaign = shared_data().join("tryout_gantry/campaign");
-    let o = mtwin(&["identify", "-q", s(&campaign), "--out", s(&twin)]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    let (dir, twin) = campaign_twin();
     let base = machine();
-    let pure: Vec<usize> = (0..base.len())
-        .filter(|&i| base[i].d[0].abs().max(base[i].d[1].abs()) > 0.99)
-        .collect();
+    let pure = pure_modes(&base);
     let (mut wrong, mut n) = (Vec::new(), 0);
     for seed in 1..=2u64 {
         let mut rng = StdRng::seed_from_u64(2000 + seed);
         let k = pure[rng.gen_range(0..pure.len())];
         let shift = rng.gen_range(0.015..0.03);
         let axis = if base[k].d[0].abs() > 0.99 { 0 } else { 1 };
-        let cases: Vec<(String, usize, Option<(usize, f64)>, Value)> = vec![
+        let cases: Vec<LevelCase> = vec![
             ("linear_x".into(), 0, None, json!({"cause": "none"})),
             ("linear_y".into(), 1, None, json!({"cause": "none"})),
             (
@@ -301,11 +311,7 @@ fn tryout_truth_periodic_milling_with_hidden_effects_is_diagnosed() {
 #[test]
 fn tryout_truth_periodic_milling_tone_on_a_spindle_harmonic_and_a_large_loss() {
     use crate::common::modal::{milling, write_milling};
-    let dir = tmp();
-    let twin = dir.path().join("twin.json");
-    let campaign = shared_data().join("tryout_gantry/campaign");
-    let o = mtwin(&["identify", "-q", s(&campaign), "--out", s(&twin)]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    let (dir, twin) = campaign_twin();
     let base = machine();
     let k = (base.iter())
         .position(|m| (m.f0 - 1210.0).abs() < 1.0)
@@ -353,15 +359,9 @@ fn tryout_truth_periodic_milling_tone_on_a_spindle_harmonic_and_a_large_loss() {
 /// and how many cases.
 fn milling_cases(broadband: f64) -> (Vec<String>, usize) {
     use crate::common::modal::{milling, write_milling};
-    let dir = tmp();
-    let twin = dir.path().join("twin.json");
-    let campaign = shared_data().join("tryout_gantry/campaign");
-    let o = mtwin(&["identify", "-q", s(&campaign), "--out", s(&twin)]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    let (dir, twin) = campaign_twin();
     let base = machine();
-    let pure: Vec<usize> = (0..base.len())
-        .filter(|&i| base[i].d[0].abs().max(base[i].d[1].abs()) > 0.99)
-        .collect();
+    let pure = pure_modes(&base);
     let mut wrong = Vec::new();
     let mut n = 0;
     for seed in 1..=3u64 {
