@@ -97,7 +97,8 @@ pub(super) fn cand_disturbance(
     let mut found: Vec<(Axis, f64)> = Vec::new();
     for (i, (ts, res)) in parts.iter().zip(&residual).enumerate() {
         let Some(res) = res else { continue };
-        for (a, f) in part_tones(ts, res, incoherent) {
+        let own = (i != longest).then(|| ForceLines::of(ts));
+        for (a, f) in part_tones(ts, res, own.as_ref().unwrap_or(&masked), incoherent) {
             // the other parts only recover a tone that a force line of the longest part
             // hides (else a part's own transient, a low mode rung by a cut's start, is a
             // tone: second generator, healthy cuts of seed 18, 23.5 Hz in the shorter cut)
@@ -241,12 +242,13 @@ impl ForceLines {
 }
 
 /// The tones from outside in one part's residual `res`, per response axis: narrow peaks
-/// of the residual's spectrum, off the part's own force lines, whose response power
+/// of the residual's spectrum, off the part's own force `lines`, whose response power
 /// that is not coherent with the forces stands out ([`DISTURBANCE_MIN_STRENGTH`]) and
 /// that persist through the part ([`PERSISTENT_MIN`]); at most 3 per axis.
 fn part_tones(
     ts: &TimeSeries,
     res: &AxisResiduals,
+    lines: &ForceLines,
     incoherent: Option<&IncoherentLines>,
 ) -> Vec<(Axis, f64)> {
     let n = ts.len();
@@ -254,7 +256,6 @@ fn part_tones(
     let fft = FftPlanner::<f64>::new().plan_fft_forward(nfft);
     let window = crate::spectra::hann(n);
     let mut out = Vec::new();
-    let lines = ForceLines::of(ts);
     // the evidence that a line comes from outside: the response power at it that is
     // not coherent with the measured forces (multiple coherence, Welch over all parts)
     // stands far above that of the neighbouring lines. A model error at a line the

@@ -81,31 +81,26 @@ fn level_disagreement(
                 continue; // a gap (lines dropped for coherence)
             }
             let t = (f - fa) / (fb - fa);
-            let (h, sh) = match model.channel_index(pl.channel) {
-                Some(ci) => {
+            let linear = (
+                ph.h[j] * (1.0 - t) + ph.h[j + 1] * t,
+                ph.sigma[j] * (1.0 - t) + ph.sigma[j + 1] * t,
+            );
+            let (h, sh) = (model.channel_index(pl.channel))
+                .and_then(|ci| {
                     let (ma, mb, mf) = (
                         model.eval_hz(ci, fa),
                         model.eval_hz(ci, fb),
                         model.eval_hz(ci, f),
                     );
                     let (na, nb, nf) = (ma.norm(), mb.norm(), mf.norm());
-                    if na.min(nb).min(nf) > 0.2 * na.max(nb).max(nf) {
+                    (na.min(nb).min(nf) > 0.2 * na.max(nb).max(nf)).then(|| {
                         (
                             mf * (ph.h[j] / ma * (1.0 - t) + ph.h[j + 1] / mb * t),
                             nf * (ph.sigma[j] / na * (1.0 - t) + ph.sigma[j + 1] / nb * t),
                         )
-                    } else {
-                        (
-                            ph.h[j] * (1.0 - t) + ph.h[j + 1] * t,
-                            ph.sigma[j] * (1.0 - t) + ph.sigma[j + 1] * t,
-                        )
-                    }
-                }
-                None => (
-                    ph.h[j] * (1.0 - t) + ph.h[j + 1] * t,
-                    ph.sigma[j] * (1.0 - t) + ph.sigma[j + 1] * t,
-                ),
-            };
+                    })
+                })
+                .unwrap_or(linear);
             let var = pl.sigma[i].powi(2) + sh * sh;
             if var > 0.0 {
                 sum += (pl.h[i] - h).norm_sqr() / var;
