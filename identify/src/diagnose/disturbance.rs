@@ -2,14 +2,13 @@
 //! the proven tones from outside that the FRF evidence leaves out.
 
 use super::candidate::Cand;
-use super::evidence::{retain_lines, IncoherentLines};
+use super::evidence::{retain_lines, windowed_fft, IncoherentLines};
 use super::{trace, Cause};
 use crate::axis::Axis;
 use crate::extended::simulate_as_measured;
 use crate::modal_update::Points;
 use crate::timeseries::{ResponseKind, TimeSeries};
 use crate::twin::{Sinusoid, Twin};
-use num_complex::Complex64;
 use rustfft::FftPlanner;
 use serde_json::{json, Map};
 use std::f64::consts::PI;
@@ -205,13 +204,7 @@ impl ForceLines {
         let mut mag = vec![0.0; nfft / 2];
         for fa in Axis::ALL.iter().filter_map(|a| ts.force(*a)) {
             let mean = fa.iter().sum::<f64>() / n.max(1) as f64;
-            let mut b: Vec<Complex64> = fa
-                .iter()
-                .zip(&window)
-                .map(|(v, w)| Complex64::new((v - mean) * w, 0.0))
-                .collect();
-            b.resize(nfft, Complex64::new(0.0, 0.0));
-            fft.process(&mut b);
+            let b = windowed_fft(fa, mean, &window, &*fft, nfft);
             mag.iter_mut()
                 .zip(&b[..nfft / 2])
                 .for_each(|(t, v)| *t += v.norm());
@@ -262,13 +255,7 @@ fn part_tones(
     // force drives stays coherent with the force; a tone from outside does not.
     for (a, res) in res {
         let a = *a;
-        let mut spec: Vec<Complex64> = res
-            .iter()
-            .zip(&window)
-            .map(|(r, w)| Complex64::new(r * w, 0.0))
-            .collect();
-        spec.resize(nfft, Complex64::new(0.0, 0.0));
-        fft.process(&mut spec);
+        let spec = windowed_fft(res, 0.0, &window, &*fft, nfft);
         let mag: Vec<f64> = spec[..nfft / 2].iter().map(|c| c.norm()).collect();
         let mut sorted = mag.clone();
         sorted.sort_by(f64::total_cmp);

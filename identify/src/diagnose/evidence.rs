@@ -147,6 +147,25 @@ fn noise_psd(units: &[TimeSeries], nfft: usize) -> NoisePsd {
     )
 }
 
+/// The DFT on `nfft` lines (zero-padded) of `x` less `mean`, times `window` (as long as
+/// `x`), by the forward plan `fft` of that length.
+pub(super) fn windowed_fft(
+    x: &[f64],
+    mean: f64,
+    window: &[f64],
+    fft: &dyn rustfft::Fft<f64>,
+    nfft: usize,
+) -> Vec<Complex64> {
+    let mut b: Vec<Complex64> = x
+        .iter()
+        .zip(window)
+        .map(|(v, w)| Complex64::new((v - mean) * w, 0.0))
+        .collect();
+    b.resize(nfft, Complex64::new(0.0, 0.0));
+    fft.process(&mut b);
+    b
+}
+
 fn tail_psd(
     units: &[TimeSeries],
     nfft: usize,
@@ -169,17 +188,9 @@ fn tail_psd(
             let mean = tail.iter().sum::<f64>() / len as f64;
             // Hann window: the strong low-frequency (1/f) noise must not leak into the
             // lines above through a rectangular window's side lobes
-            let w: Vec<f64> = (0..len)
-                .map(|i| 0.5 - 0.5 * (2.0 * PI * i as f64 / len as f64).cos())
-                .collect();
+            let w = crate::spectra::hann(len);
             let w2: f64 = w.iter().map(|v| v * v).sum();
-            let mut b: Vec<Complex64> = tail
-                .iter()
-                .zip(&w)
-                .map(|(v, w)| Complex64::new((v - mean) * w, 0.0))
-                .collect();
-            b.resize(nfft, Complex64::new(0.0, 0.0));
-            fft.process(&mut b);
+            let b = windowed_fft(tail, mean, &w, &*fft, nfft);
             for l in 1..nl {
                 acc[l] += b[l].norm_sqr() / w2;
             }
