@@ -586,13 +586,19 @@ impl MeasuredFrf {
         MeasuredFrf {
             facts: EstimateFacts {
                 measured_as: file.measured_as,
-                method: "not known (measured FRFs given, no time series to recognise it from)"
-                    .into(),
+                excitation_band_hz: file.force_band_hz,
+                method: format!(
+                    "not known (measured FRFs given, no time series to recognise it from){}",
+                    file.exp_window_sigma.map_or(String::new(), |s| format!(
+                        "; made with an exponential window of {s:.3} 1/s, which the file \
+                         states (estimate = H(s + sigma))"
+                    ))
+                ),
                 ..Default::default()
             },
             pose: file.pose.unwrap_or([0.0; 3]),
             frf: file.frf,
-            exp_window_sigma: None,
+            exp_window_sigma: file.exp_window_sigma,
             sources: vec![path.display().to_string()],
             warnings: Vec::new(),
         }

@@ -37,8 +37,15 @@ pub const DRIFT_STATIC_RATIO: f64 = 10.0;
 /// that none of them shows ([`ModelGuards::unseen_peaks`]; second generator, a one-pose
 /// twin from hits 0.29 s apart, 3.4 Hz lines: a 39.5 Hz pole with ζ = 0.001 % at the
 /// band's lower edge held a peak 1000 times the data's; its fit to the measured lines
-/// 98 %, to the truth between them −133 %).
-pub const UNSEEN_PEAK_RATIO: f64 = 10.0;
+/// 98 %, to the truth between them −133 %). No line fixes such a mode's damping, however
+/// high its peak: the ratio only asks that the peak stand out of the lines, and
+/// [`UNSEEN_PEAK_FIT_LOSS`] decides whether the lines need it as fitted. (Was 10: the
+/// second generator's seed-9 centre twin, its records with white noise of 1 % of their
+/// own noise added, held a 74.0 Hz pole at 0.46 % damping on 3.3 Hz lines whose peak
+/// stood 2 times above them, and fitted the truth at 64.2 % instead of 86.3 %; with 1.5
+/// its five draws spread by 1.2 points instead of 22.1, the other 19 seeds' draws
+/// unchanged, `bench/twin_stability.py`.)
+pub const UNSEEN_PEAK_RATIO: f64 = 1.5;
 /// Largest loss \[points\] of a candidate's mean fit, and of any channel's fit over the
 /// band, at which identify repairs a mode of [`ModelGuards::unseen_peaks`] (damped to one
 /// line's width or removed): a peak the lines do not hold costs them little (second

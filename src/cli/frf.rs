@@ -262,15 +262,32 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
         check_output_not_input(r, &a.files)?;
     }
     let opts = frf_options(&a.estimator, &a.excitation, a.nfft);
-    let (est, reading) = estimate(&a, &opts, out)?;
+    let (mut est, reading) = estimate(&a, &opts, out)?;
     if let Reading::Streamed { rows } = reading {
         out.say(format!(
             "streamed {rows} rows from {} (two passes, memory independent of the record length)",
             a.files[0].display()
         ));
     }
+    if let Some(s) = est
+        .exp_window_sigma
+        .filter(|_| identify::io::measured::is_uff(&a.out))
+    {
+        est.warnings.push(format!(
+            "{}: the FRFs are H(s + {s:.3}/s), an exponential window's estimate, and a \
+             universal file has no place to say so: a modal fit of this file sees each mode \
+             {s:.3}/ω more damped (write an FRF CSV, which states the window, to identify from)",
+            a.out.display()
+        ));
+    }
     out.warnings(&est.warnings);
-    let format = identify::io::measured::write_frf(&a.out, &est.frf, a.uff_binary)?;
+    let format = identify::io::measured::write_frf(
+        &a.out,
+        &est.frf,
+        a.uff_binary,
+        est.exp_window_sigma,
+        est.excitation_band_hz,
+    )?;
     let mut chans = Vec::new();
     for c in &est.frf.channels {
         let mean_coh = c

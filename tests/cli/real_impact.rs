@@ -11,11 +11,17 @@ fn real_impact_test_from_frf_to_simulation() {
     let o = mtwin(&["frf", s(&data), "--out", s(&frf)]);
     assert!(o.status.success(), "{}", stderr(&o));
     let text = std::fs::read_to_string(&frf).unwrap();
+    // comment lines first (the force's band, an exponential window when one was chosen),
+    // then the header
     assert!(text
         .lines()
-        .next()
+        .find(|l| !l.starts_with('#'))
         .unwrap()
         .starts_with("f_hz,xx_re,xx_im,xx_coh"));
+    assert!(
+        text.lines().any(|l| l.starts_with("# force_band_hz=")),
+        "the FRF CSV states the force's band"
+    );
 
     let twin = d.path().join("twin.json");
     let o = mtwin(&[

@@ -109,6 +109,14 @@ pub struct FrfFile {
     pub pose: Option<[f64; 3]>,
     /// What the file's FRFs measured when it says so (all alike) or the caller assumed.
     pub measured_as: Option<MeasuredAs>,
+    /// Decay (1/s) of the exponential window the file's estimate was made with, from an
+    /// FRF CSV comment `# exp_window_sigma=V` ([`write_frf`] writes it): its FRFs are then
+    /// `H(s + σ)`, and identify takes the window out of the model.
+    pub exp_window_sigma: Option<f64>,
+    /// Band (Hz) where the estimate's force was within 20 dB of its peak, from an FRF CSV
+    /// comment `# force_band_hz=LO,HI` ([`write_frf`] writes it): the lines outside it
+    /// were poorly excited, and identify's automatic band stops there.
+    pub force_band_hz: Option<(f64, f64)>,
 }
 
 fn uff_data_type(m: MeasuredAs) -> i32 {
@@ -158,6 +166,8 @@ pub fn read_frf_file(path: &Path, o: &ReadOptions) -> Result<FrfFile> {
             frf,
             pose: o.pose,
             measured_as,
+            exp_window_sigma: None,
+            force_band_hz: None,
         })
     } else {
         let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
@@ -169,22 +179,27 @@ pub fn read_frf_file(path: &Path, o: &ReadOptions) -> Result<FrfFile> {
             frf,
             pose: pose_comment(&text, path)?.or(o.pose),
             measured_as: None,
+            exp_window_sigma: sigma_comment(&text, path)?,
+            force_band_hz: band_comment(&text, path)?,
         })
     }
+}
+
+/// The comment lines before an FRF CSV's header: each one's number and its text after
+/// the `#`.
+fn header_comments(text: &str) -> impl Iterator<Item = (usize, &str)> {
+    text.lines()
+        .enumerate()
+        .map(|(i, l)| (i + 1, l.trim()))
+        .filter(|(_, t)| !t.is_empty())
+        .take_while(|(_, t)| t.starts_with('#'))
+        .map(|(n, t)| (n, t.trim_start_matches('#').trim()))
 }
 
 /// The pose of an FRF CSV from a comment line `# pose=X,Y,Z`, or `pose=X,Y,Z` as the
 /// last word of a comment line (`# analytic receptance at pose=0.2,0.15,0.05`), if any.
 fn pose_comment(text: &str, path: &Path) -> Result<Option<[f64; 3]>> {
-    for (i, line) in text.lines().enumerate() {
-        let t = line.trim();
-        if !t.starts_with('#') {
-            if t.is_empty() {
-                continue;
-            }
-            break;
-        }
-        let body = t.trim_start_matches('#').trim();
+    for (line, body) in header_comments(text) {
         let found = body.strip_prefix("pose=").or_else(|| {
             body.rsplit_once(" pose=")
                 .map(|(_, v)| v)
@@ -193,10 +208,62 @@ fn pose_comment(text: &str, path: &Path) -> Result<Option<[f64; 3]>> {
         if let Some(v) = found {
             return parse_pose(v)
                 .map(Some)
-                .map_err(|e| Error::bad_file(path, i + 1, None, format!("pose comment: {e}")));
+                .map_err(|e| Error::bad_file(path, line, None, format!("pose comment: {e}")));
         }
     }
     Ok(None)
+}
+
+/// Comment line of an FRF CSV that states the exponential window's decay.
+const SIGMA_COMMENT: &str = "exp_window_sigma=";
+
+/// The first word after `key` on a comment line before an FRF CSV's header (`# key...`),
+/// with the line's number, if any.
+fn comment_value<'t>(text: &'t str, key: &str) -> Option<(usize, &'t str)> {
+    header_comments(text).find_map(|(line, body)| {
+        body.strip_prefix(key)
+            .map(|v| (line, v.split_whitespace().next().unwrap_or("")))
+    })
+}
+
+/// The exponential window's decay of an FRF CSV from a comment line
+/// `# exp_window_sigma=V ...` before the header, if any.
+fn sigma_comment(text: &str, path: &Path) -> Result<Option<f64>> {
+    let Some((line, word)) = comment_value(text, SIGMA_COMMENT) else {
+        return Ok(None);
+    };
+    match word.parse::<f64>() {
+        Ok(s) if s.is_finite() && s >= 0.0 => Ok((s > 0.0).then_some(s)),
+        _ => Err(Error::bad_file(
+            path,
+            line,
+            Some(word),
+            "exp_window_sigma must be a decay in 1/s, zero or positive",
+        )),
+    }
+}
+
+/// Comment line of an FRF CSV that states the force's band.
+const BAND_COMMENT: &str = "force_band_hz=";
+
+/// The force's band of an FRF CSV from a comment line `# force_band_hz=LO,HI ...` before
+/// the header, if any.
+fn band_comment(text: &str, path: &Path) -> Result<Option<(f64, f64)>> {
+    let Some((line, word)) = comment_value(text, BAND_COMMENT) else {
+        return Ok(None);
+    };
+    let parts: Vec<Option<f64>> = word.split(',').map(|x| x.parse().ok()).collect();
+    match parts.as_slice() {
+        [Some(lo), Some(hi)] if lo.is_finite() && hi.is_finite() && *lo >= 0.0 && hi > lo => {
+            Ok(Some((*lo, *hi)))
+        }
+        _ => Err(Error::bad_file(
+            path,
+            line,
+            Some(word),
+            "force_band_hz must be two frequencies in Hz, LO,HI with 0 <= LO < HI",
+        )),
+    }
 }
 
 /// The format [`write_frf`] chose.
@@ -221,8 +288,18 @@ impl std::fmt::Display for FrfFormat {
 }
 
 /// Writes an FRF by the output's extension: UFF dataset 58 (ASCII) for `.uff`/`.unv`,
-/// 58b (binary) when `binary`, the FRF CSV of docs/formats.md otherwise. Atomic.
-pub fn write_frf(path: &Path, frf: &Frf, binary: bool) -> Result<FrfFormat> {
+/// 58b (binary) when `binary`, the FRF CSV of docs/formats.md otherwise. Atomic. An
+/// estimate made with an exponential window of decay `exp_window_sigma` (its FRFs are
+/// `H(s + σ)`) says so in a first comment line of the CSV, `# exp_window_sigma=V`, and
+/// the force's band in `# force_band_hz=LO,HI`; [`read_frf_file`] reads both back (a UFF
+/// file has no place for them: the caller warns about the window).
+pub fn write_frf(
+    path: &Path,
+    frf: &Frf,
+    binary: bool,
+    exp_window_sigma: Option<f64>,
+    force_band_hz: Option<(f64, f64)>,
+) -> Result<FrfFormat> {
     if is_uff(path) {
         let funcs = uff::uff_from_frf(frf, 1);
         if binary {
@@ -238,7 +315,21 @@ pub fn write_frf(path: &Path, frf: &Frf, binary: bool) -> Result<FrfFormat> {
             path.display()
         )))
     } else {
-        read::write_frf_csv(path, frf)?;
+        let mut text = String::new();
+        if let Some(sigma) = exp_window_sigma.filter(|s| *s > 0.0) {
+            text += &format!(
+                "# {SIGMA_COMMENT}{sigma} (1/s: an exponential window's estimate, the FRFs \
+                 are H(s + sigma); identify takes the window out)\n"
+            );
+        }
+        if let Some((lo, hi)) = force_band_hz {
+            text += &format!(
+                "# {BAND_COMMENT}{lo},{hi} (the force within 20 dB of its peak; identify's \
+                 automatic band stops there)\n"
+            );
+        }
+        text += &read::format_frf_csv(frf)?;
+        crate::atomic::write_atomic(path, text.as_bytes())?;
         Ok(FrfFormat::Csv)
     }
 }
@@ -273,5 +364,47 @@ mod tests {
             e.is_bad_input() && e.to_string().starts_with("c.csv:1:"),
             "{e}"
         );
+    }
+
+    /// A windowed estimate written to an FRF CSV says so, with the force's band, and both
+    /// are read back; a bad value is an error naming its line.
+    #[test]
+    fn window_and_force_band_round_trip_through_an_frf_csv() {
+        let dir = std::env::temp_dir().join(format!("mtwin-measured-rt-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let frf = Frf {
+            freqs_hz: vec![1.0, 2.0],
+            channels: vec![crate::frf::FrfChannel {
+                channel: crate::axis::Channel {
+                    output: crate::axis::Axis::X,
+                    input: crate::axis::Axis::X,
+                },
+                h: vec![num_complex::Complex64::new(1e-8, 0.0); 2],
+                coherence: Some(vec![0.99, 0.98]),
+            }],
+        };
+        let p = dir.join("w.csv");
+        write_frf(&p, &frf, false, Some(12.5), Some((3.2, 3726.0))).unwrap();
+        let back = read_frf_file(&p, &ReadOptions::default()).unwrap();
+        assert_eq!(back.exp_window_sigma, Some(12.5));
+        assert_eq!(back.force_band_hz, Some((3.2, 3726.0)));
+        let q = dir.join("plain.csv");
+        write_frf(&q, &frf, false, None, None).unwrap();
+        let plain = read_frf_file(&q, &ReadOptions::default()).unwrap();
+        assert_eq!((plain.exp_window_sigma, plain.force_band_hz), (None, None));
+        let bad = tmp(
+            "bad.csv",
+            "# exp_window_sigma=-1\nf_hz,xx_re,xx_im\n1,0,0\n",
+        );
+        let e = read_frf_file(&bad, &ReadOptions::default()).unwrap_err();
+        assert!(
+            e.to_string().contains("bad.csv:1") && e.to_string().contains("exp_window_sigma"),
+            "{e}"
+        );
+        let bad = tmp(
+            "bad2.csv",
+            "# force_band_hz=400,30\nf_hz,xx_re,xx_im\n1,0,0\n",
+        );
+        assert!(read_frf_file(&bad, &ReadOptions::default()).is_err());
     }
 }
