@@ -583,22 +583,25 @@ impl MeasuredFrf {
     /// A measured FRF file ([`crate::io::measured::read_frf_file`]) as one pose (at the
     /// origin when neither the file nor the caller gave one).
     pub fn from_file(path: &std::path::Path, file: crate::io::measured::FrfFile) -> Self {
+        let notes = file.notes;
         MeasuredFrf {
             facts: EstimateFacts {
                 measured_as: file.measured_as,
-                excitation_band_hz: file.force_band_hz,
+                excitation_band_hz: notes.force_band_hz,
+                averages: notes.averages,
+                averages_per_channel: notes.averages,
+                coherence_dof: notes.coherence_dof,
                 method: format!(
                     "not known (measured FRFs given, no time series to recognise it from){}",
-                    file.exp_window_sigma.map_or(String::new(), |s| format!(
+                    notes.exp_window_sigma.map_or(String::new(), |s| format!(
                         "; made with an exponential window of {s:.3} 1/s, which the file \
                          states (estimate = H(s + sigma))"
                     ))
                 ),
-                ..Default::default()
             },
             pose: file.pose.unwrap_or([0.0; 3]),
             frf: file.frf,
-            exp_window_sigma: file.exp_window_sigma,
+            exp_window_sigma: notes.exp_window_sigma,
             sources: vec![path.display().to_string()],
             warnings: Vec::new(),
         }

@@ -20,7 +20,10 @@
 //!   is Beta(1, n−1) distributed). A channel whose coherence exceeds `x` on fewer than
 //!   [`MIN_INFORMATIVE_FRACTION`] of the band's lines carries no information: it is kept
 //!   out of the fit (it cannot steer the common poles) and reported as not identified.
-//!   Without coherence (measured FRF files, one full-record DFT) every channel is used.
+//!   A measured FRF file states `n` in a comment (`mtwin frf` writes it); when it does
+//!   not, `n` is estimated from its least coherent channel if that one's median coherence
+//!   is what pure noise gives ([`averages_from_noise_channel`]). Without coherence
+//!   (measured FRF files without it, one full-record DFT) every channel is used.
 
 use crate::axis::Channel;
 use crate::frf::Frf;
@@ -96,6 +99,39 @@ pub fn null_coherence(n: usize, p: f64) -> f64 {
     1.0 - p.powf(1.0 / (n as f64 - 1.0))
 }
 
+/// Median coherence below which a channel of an FRF whose averages are not known is
+/// taken for one without response ([`averages_from_noise_channel`]): a coherent channel's
+/// median lies near 1 where the force excites it, pure noise's at `1 - 0.5^(1/(n-1))`,
+/// 0.5 with 2 averages and less with more.
+pub const NOISE_MEDIAN_COHERENCE: f64 = 0.5;
+
+/// The averages behind an FRF that does not state them (a measured FRF file from another
+/// tool), from its least coherent channel when that looks like pure noise: γ² of noise
+/// is Beta(1, n−1), whose median `m = 1 − 0.5^{1/(n−1)}` gives `n = 1 + ln 0.5 / ln(1 − m)`.
+/// The count, the channel and its median; `None` when every channel's median coherence
+/// over `lines` is at least [`NOISE_MEDIAN_COHERENCE`] (then no channel is taken for
+/// noise and every one is used).
+pub fn averages_from_noise_channel(frf: &Frf, lines: &[usize]) -> Option<(usize, Channel, f64)> {
+    let (ch, m) = frf
+        .channels
+        .iter()
+        .filter_map(|c| {
+            let g = c.coherence.as_ref()?;
+            let mut v: Vec<f64> = lines.iter().filter_map(|&k| g.get(k).copied()).collect();
+            if v.len() < 16 {
+                return None;
+            }
+            v.sort_by(f64::total_cmp);
+            Some((c.channel, v[v.len() / 2]))
+        })
+        .min_by(|a, b| a.1.total_cmp(&b.1))?;
+    if !(m > 0.0 && m < NOISE_MEDIAN_COHERENCE) {
+        return None;
+    }
+    let n = 1.0 + 0.5f64.ln() / (1.0 - m).ln();
+    Some(((n.round() as usize).clamp(2, 1000), ch, m))
+}
+
 /// Decides band and channels for one pose (module docs). `forced` lists channels the
 /// campaign keeps out whatever this pose says (decided over all poses); `user_band`
 /// narrows the band; `isolated_resonances` lets an isolated coherent resonance extend the
@@ -143,13 +179,22 @@ pub fn plan_pose(
     }
     // channel decisions over the force band
     let in_band: Vec<usize> = (0..f.len()).filter(|&k| f[k] >= lo && f[k] <= hi).collect();
+    let guessed = (facts.coherence_dof.or(facts.averages).is_none())
+        .then(|| averages_from_noise_channel(frf, &in_band))
+        .flatten();
     let x99 = facts
         .coherence_dof
         .or(facts.averages)
+        .or(guessed.as_ref().map(|g| g.0))
         .map(null_coherence_99);
-    let basis = match facts.coherence_dof {
-        Some(_) => "coherence from the FRF's line-to-line scatter".to_string(),
-        None => crate::axis::count(facts.averages.unwrap_or(0), "average"),
+    let basis = match (facts.coherence_dof, facts.averages, &guessed) {
+        (Some(_), _, _) => "coherence from the FRF's line-to-line scatter".to_string(),
+        (None, None, Some((n, ch, m))) => format!(
+            "{}: the file does not say; estimated from channel {ch}, whose median coherence \
+             {m:.3} is what pure noise gives with that many",
+            crate::axis::count(*n, "average")
+        ),
+        _ => crate::axis::count(facts.averages.unwrap_or(0), "average"),
     };
     let level = |c: &crate::frf::FrfChannel| c.h.iter().map(|v| v.norm()).fold(0.0, f64::max);
     let top = frf.channels.iter().map(level).fold(0.0, f64::max);
@@ -553,6 +598,49 @@ mod tests {
     use crate::axis::Axis;
     use crate::frf::FrfChannel;
     use num_complex::Complex64;
+
+    /// A file that does not state its averages: a channel of pure noise (coherence drawn
+    /// from Beta(1, n-1) with n = 5, a shuffled quantile grid) gives back n = 5 and is
+    /// left out, while a coherent channel is used; with every channel coherent nothing is
+    /// estimated and both are used.
+    #[test]
+    fn averages_not_stated_are_estimated_from_a_noise_only_channel() {
+        let n_lines = 400;
+        let mut lcg = crate::test_util::Lcg(7);
+        let mut noise: Vec<f64> = (0..n_lines)
+            .map(|k| 1.0 - ((k as f64 + 0.5) / n_lines as f64).powf(1.0 / 4.0))
+            .collect();
+        for k in (1..n_lines).rev() {
+            let j = ((lcg.uniform() + 0.5) * (k + 1) as f64) as usize;
+            noise.swap(k, j.min(k));
+        }
+        let chan = |o, g: Vec<f64>| FrfChannel {
+            channel: Channel {
+                output: o,
+                input: Axis::X,
+            },
+            h: vec![Complex64::new(1e-7, 1e-8); n_lines],
+            coherence: Some(g),
+        };
+        let freqs: Vec<f64> = (0..n_lines).map(|k| 10.0 + 5.0 * k as f64).collect();
+        let mut frf = Frf {
+            freqs_hz: freqs,
+            channels: vec![chan(Axis::X, vec![0.99; n_lines]), chan(Axis::Z, noise)],
+        };
+        let lines: Vec<usize> = (0..n_lines).collect();
+        let (n, ch, m) = averages_from_noise_channel(&frf, &lines).unwrap();
+        assert_eq!((n, ch.output), (5, Axis::Z), "median {m}");
+        let plan = plan_pose(&frf, &EstimateFacts::default(), None, &[], false);
+        let used: Vec<bool> = plan.channels.iter().map(|c| c.used).collect();
+        assert_eq!(used, [true, false], "{:?}", plan.channels);
+        assert!(plan.channels[1]
+            .reason
+            .contains("estimated from channel zx"));
+        frf.channels[1].coherence = Some(vec![0.9; n_lines]);
+        assert!(averages_from_noise_channel(&frf, &lines).is_none());
+        let plan = plan_pose(&frf, &EstimateFacts::default(), None, &[], false);
+        assert!(plan.channels.iter().all(|c| c.used));
+    }
 
     #[test]
     fn line_noise_scale_finds_scatter_the_coherence_misses() {

@@ -619,6 +619,19 @@ fn is_sweep(f: &[f64], stats: &[(usize, usize, f64, f64)]) -> bool {
         .collect();
     let means: Vec<f64> = stats.iter().map(|p| p.2).collect();
     let rms: Vec<f64> = stats.iter().map(|p| p.3).collect();
+    is_sweep_windows(&parts, &means, &rms)
+}
+
+/// Where [`is_sweep`] decides: the middle window of each of the [`SWEEP_SEGMENTS`] parts
+/// (all of one length), with the mean and RMS of the whole part. A streamed record
+/// ([`stream`]) keeps only these windows.
+fn is_sweep_windows(parts: &[&[f64]], means: &[f64], rms: &[f64]) -> bool {
+    let Some(n) = parts.first().map(|p| p.len()).filter(|&n| n > 0) else {
+        return false;
+    };
+    if parts.iter().any(|p| p.len() != n) {
+        return false;
+    }
     let top = rms.iter().copied().fold(0.0, f64::max);
     let carrying: Vec<usize> = (0..parts.len()).filter(|&s| rms[s] >= 0.1 * top).collect();
     if carrying.len() < 6 {

@@ -108,7 +108,12 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
     }
     let model = ev.model_at(a.pose.at).clone();
     let frf: Frf = model.frf(&freqs);
-    let format = identify::io::measured::write_frf(&a.out, &frf, a.uff_binary, None, None)?;
+    let format = identify::io::measured::write_frf(
+        &a.out,
+        &frf,
+        a.uff_binary,
+        &identify::io::measured::EstimateNotes::default(),
+    )?;
     out.say(format!(
         "FRF of {} at {} ({} {:.1}-{:.1} Hz, {}) -> {} ({format})",
         identify::axis::count(frf.channels.len(), "channel"),

@@ -285,8 +285,12 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
         &a.out,
         &est.frf,
         a.uff_binary,
-        est.exp_window_sigma,
-        est.excitation_band_hz,
+        &identify::io::measured::EstimateNotes {
+            exp_window_sigma: est.exp_window_sigma,
+            force_band_hz: est.excitation_band_hz,
+            averages: (est.averages_per_channel > 0).then_some(est.averages_per_channel),
+            coherence_dof: est.coherence_dof,
+        },
     )?;
     let mut chans = Vec::new();
     for c in &est.frf.channels {

@@ -1,6 +1,6 @@
 //! `mtwin frf` streams a single long continuous record (`--json` says
 //! `"reading": "streamed"`), writes the same FRF as the in-memory path, reads impact
-//! records into memory, and on a bad row mid-file exits 2 naming the line with nothing
+//! records and sweeps into memory, and on a bad row mid-file exits 2 naming the line with nothing
 //! written.
 
 use crate::common::*;
@@ -105,6 +105,49 @@ fn impact_records_are_read_into_memory_even_with_stream() {
     let js = frf_json(&data, &d.path().join("frf.csv"), &["--stream"]);
     assert_eq!(js["reading"], "in_memory", "{js}");
     assert!(js["hits_used"].as_u64().unwrap() >= 2, "{js}");
+}
+
+/// A logarithmic sweep asked to stream is still recognised as a sweep, as in memory (the
+/// streamed scan judges it from the same windows), and estimated as one: the same FRF
+/// file, coherence from the line-to-line scatter, which the file states.
+#[test]
+fn a_sweep_asked_to_stream_is_estimated_as_a_sweep() {
+    let d = tmp();
+    let (fs, rows) = (10_240.0, 60_000usize);
+    let dur = rows as f64 / fs;
+    let (f0, f1) = (20.0f64, 2000.0f64);
+    let k = (f1 / f0).ln() / dur;
+    let mut text = String::from("# generated, logarithmic sweep\nt,fx,ax\n");
+    let (mut v, mut x) = (0.0f64, 0.0f64);
+    let (wn, zeta, dt) = (2.0 * std::f64::consts::PI * 300.0, 0.02, 1.0 / fs);
+    for i in 0..rows {
+        let t = i as f64 * dt;
+        let f = (2.0 * std::f64::consts::PI * f0 * ((k * t).exp() - 1.0) / k).sin();
+        // one mode, semi-implicit Euler at the sample rate (what it is does not matter:
+        // the test compares the two readings of the same file)
+        let a = f - 2.0 * zeta * wn * v - wn * wn * x;
+        v += a * dt;
+        x += v * dt;
+        text.push_str(&format!("{t},{f},{a}\n"));
+    }
+    let data = write(d.path(), "sweep.csv", &text);
+    let streamed = d.path().join("streamed.csv");
+    let in_memory = d.path().join("in_memory.csv");
+    let js = frf_json(&data, &streamed, &["--stream"]);
+    let jm = frf_json(&data, &in_memory, &[]);
+    assert_eq!(
+        js["reading"], "in_memory",
+        "a sweep is not Welch-streamed: {js}"
+    );
+    assert!(
+        js["method"].as_str().unwrap().contains("chirp"),
+        "{}",
+        js["method"]
+    );
+    assert_eq!(js["method"], jm["method"]);
+    let written = std::fs::read_to_string(&streamed).unwrap();
+    assert_eq!(written, std::fs::read_to_string(&in_memory).unwrap());
+    assert!(written.contains("# coherence_dof="), "{written:.300}");
 }
 
 #[test]

@@ -109,14 +109,34 @@ pub struct FrfFile {
     pub pose: Option<[f64; 3]>,
     /// What the file's FRFs measured when it says so (all alike) or the caller assumed.
     pub measured_as: Option<MeasuredAs>,
-    /// Decay (1/s) of the exponential window the file's estimate was made with, from an
-    /// FRF CSV comment `# exp_window_sigma=V` ([`write_frf`] writes it): its FRFs are then
-    /// `H(s + σ)`, and identify takes the window out of the model.
+    /// What the estimate behind the file's FRFs says of itself, from the FRF CSV's
+    /// comment lines ([`write_frf`] writes them; none for a UFF file).
+    pub notes: EstimateNotes,
+}
+
+/// What an FRF estimate says of itself beyond its lines, carried through an FRF CSV as
+/// comment lines before the header (docs/formats.md, "FRF CSV"): without them a twin
+/// identified from the file could not take a window out, stop its band at the force's,
+/// or tell a coherent channel from a noise-only one.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct EstimateNotes {
+    /// Decay (1/s) of the exponential window the estimate was made with
+    /// (`# exp_window_sigma=V`): its FRFs are then `H(s + σ)`, and identify takes the
+    /// window out of the model.
     pub exp_window_sigma: Option<f64>,
-    /// Band (Hz) where the estimate's force was within 20 dB of its peak, from an FRF CSV
-    /// comment `# force_band_hz=LO,HI` ([`write_frf`] writes it): the lines outside it
-    /// were poorly excited, and identify's automatic band stops there.
+    /// Band (Hz) where the estimate's force was within 20 dB of its peak
+    /// (`# force_band_hz=LO,HI`): the lines outside it were poorly excited, and
+    /// identify's automatic band stops there.
     pub force_band_hz: Option<(f64, f64)>,
+    /// Averages behind each channel's estimate, the fewest over the channels
+    /// (`# averages=N`: hits of its force direction, Welch segments, chirp periods): the
+    /// level pure noise reaches in the coherence, by which identify keeps a noise-only
+    /// channel out of the fit.
+    pub averages: Option<usize>,
+    /// Lines behind each coherence value when the coherence came from the FRF's
+    /// line-to-line scatter (one sweep record) instead of averages
+    /// (`# coherence_dof=N`).
+    pub coherence_dof: Option<usize>,
 }
 
 fn uff_data_type(m: MeasuredAs) -> i32 {
@@ -166,8 +186,7 @@ pub fn read_frf_file(path: &Path, o: &ReadOptions) -> Result<FrfFile> {
             frf,
             pose: o.pose,
             measured_as,
-            exp_window_sigma: None,
-            force_band_hz: None,
+            notes: EstimateNotes::default(),
         })
     } else {
         let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
@@ -179,8 +198,12 @@ pub fn read_frf_file(path: &Path, o: &ReadOptions) -> Result<FrfFile> {
             frf,
             pose: pose_comment(&text, path)?.or(o.pose),
             measured_as: None,
-            exp_window_sigma: sigma_comment(&text, path)?,
-            force_band_hz: band_comment(&text, path)?,
+            notes: EstimateNotes {
+                exp_window_sigma: sigma_comment(&text, path)?,
+                force_band_hz: band_comment(&text, path)?,
+                averages: count_comment(&text, path, AVERAGES_COMMENT)?,
+                coherence_dof: count_comment(&text, path, DOF_COMMENT)?,
+            },
         })
     }
 }
@@ -266,6 +289,32 @@ fn band_comment(text: &str, path: &Path) -> Result<Option<(f64, f64)>> {
     }
 }
 
+/// Comment line of an FRF CSV that states the averages behind each channel.
+const AVERAGES_COMMENT: &str = "averages=";
+
+/// Comment line of an FRF CSV that states the lines behind a scatter coherence.
+const DOF_COMMENT: &str = "coherence_dof=";
+
+/// A count (a whole number, at least 1) from a comment line `# key=N ...` before an FRF
+/// CSV's header, if any.
+fn count_comment(text: &str, path: &Path, key: &str) -> Result<Option<usize>> {
+    let Some((line, word)) = comment_value(text, key) else {
+        return Ok(None);
+    };
+    match word.parse::<usize>() {
+        Ok(n) if n >= 1 => Ok(Some(n)),
+        _ => Err(Error::bad_file(
+            path,
+            line,
+            Some(word),
+            format!(
+                "{} must be a whole number, at least 1",
+                key.trim_end_matches('=')
+            ),
+        )),
+    }
+}
+
 /// The format [`write_frf`] chose.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum FrfFormat {
@@ -288,18 +337,12 @@ impl std::fmt::Display for FrfFormat {
 }
 
 /// Writes an FRF by the output's extension: UFF dataset 58 (ASCII) for `.uff`/`.unv`,
-/// 58b (binary) when `binary`, the FRF CSV of docs/formats.md otherwise. Atomic. An
-/// estimate made with an exponential window of decay `exp_window_sigma` (its FRFs are
-/// `H(s + σ)`) says so in a first comment line of the CSV, `# exp_window_sigma=V`, and
-/// the force's band in `# force_band_hz=LO,HI`; [`read_frf_file`] reads both back (a UFF
-/// file has no place for them: the caller warns about the window).
-pub fn write_frf(
-    path: &Path,
-    frf: &Frf,
-    binary: bool,
-    exp_window_sigma: Option<f64>,
-    force_band_hz: Option<(f64, f64)>,
-) -> Result<FrfFormat> {
+/// 58b (binary) when `binary`, the FRF CSV of docs/formats.md otherwise. Atomic. The
+/// CSV states the estimate's `notes` in comment lines before its header
+/// (`# exp_window_sigma=V`, `# force_band_hz=LO,HI`, `# averages=N`,
+/// `# coherence_dof=N`), which [`read_frf_file`] reads back (a UFF file has no place for
+/// them: the caller warns about a window).
+pub fn write_frf(path: &Path, frf: &Frf, binary: bool, notes: &EstimateNotes) -> Result<FrfFormat> {
     if is_uff(path) {
         let funcs = uff::uff_from_frf(frf, 1);
         if binary {
@@ -316,16 +359,29 @@ pub fn write_frf(
         )))
     } else {
         let mut text = String::new();
-        if let Some(sigma) = exp_window_sigma.filter(|s| *s > 0.0) {
+        if let Some(sigma) = notes.exp_window_sigma.filter(|s| *s > 0.0) {
             text += &format!(
                 "# {SIGMA_COMMENT}{sigma} (1/s: an exponential window's estimate, the FRFs \
                  are H(s + sigma); identify takes the window out)\n"
             );
         }
-        if let Some((lo, hi)) = force_band_hz {
+        if let Some((lo, hi)) = notes.force_band_hz {
             text += &format!(
-                "# {BAND_COMMENT}{lo},{hi} (the force within 20 dB of its peak; identify's \
-                 automatic band stops there)\n"
+                "# {BAND_COMMENT}{lo},{hi} (the force's band: within 20 dB of its peak, 40 dB \
+                 for one sweep record; identify's automatic band stops there)\n"
+            );
+        }
+        if let Some(n) = notes.averages {
+            text += &format!(
+                "# {AVERAGES_COMMENT}{n} (behind each channel's estimate: the level pure \
+                 noise reaches in the coherence, by which identify leaves a noise-only \
+                 channel out)\n"
+            );
+        }
+        if let Some(n) = notes.coherence_dof {
+            text += &format!(
+                "# {DOF_COMMENT}{n} (lines behind each coherence value, taken from the \
+                 FRF's line-to-line scatter)\n"
             );
         }
         text += &read::format_frf_csv(frf)?;
@@ -366,10 +422,10 @@ mod tests {
         );
     }
 
-    /// A windowed estimate written to an FRF CSV says so, with the force's band, and both
-    /// are read back; a bad value is an error naming its line.
+    /// An estimate's notes written to an FRF CSV (window, force band, averages, scatter
+    /// lines) are read back; a bad value is an error naming its line.
     #[test]
-    fn window_and_force_band_round_trip_through_an_frf_csv() {
+    fn estimate_notes_round_trip_through_an_frf_csv() {
         let dir = std::env::temp_dir().join(format!("mtwin-measured-rt-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let frf = Frf {
@@ -384,14 +440,19 @@ mod tests {
             }],
         };
         let p = dir.join("w.csv");
-        write_frf(&p, &frf, false, Some(12.5), Some((3.2, 3726.0))).unwrap();
+        let notes = EstimateNotes {
+            exp_window_sigma: Some(12.5),
+            force_band_hz: Some((3.2, 3726.0)),
+            averages: Some(5),
+            coherence_dof: Some(7),
+        };
+        write_frf(&p, &frf, false, &notes).unwrap();
         let back = read_frf_file(&p, &ReadOptions::default()).unwrap();
-        assert_eq!(back.exp_window_sigma, Some(12.5));
-        assert_eq!(back.force_band_hz, Some((3.2, 3726.0)));
+        assert_eq!(back.notes, notes);
         let q = dir.join("plain.csv");
-        write_frf(&q, &frf, false, None, None).unwrap();
+        write_frf(&q, &frf, false, &EstimateNotes::default()).unwrap();
         let plain = read_frf_file(&q, &ReadOptions::default()).unwrap();
-        assert_eq!((plain.exp_window_sigma, plain.force_band_hz), (None, None));
+        assert_eq!(plain.notes, EstimateNotes::default());
         let bad = tmp(
             "bad.csv",
             "# exp_window_sigma=-1\nf_hz,xx_re,xx_im\n1,0,0\n",
@@ -406,5 +467,11 @@ mod tests {
             "# force_band_hz=400,30\nf_hz,xx_re,xx_im\n1,0,0\n",
         );
         assert!(read_frf_file(&bad, &ReadOptions::default()).is_err());
+        let bad = tmp("bad3.csv", "# averages=0\nf_hz,xx_re,xx_im\n1,0,0\n");
+        let e = read_frf_file(&bad, &ReadOptions::default()).unwrap_err();
+        assert!(
+            e.to_string().contains("bad3.csv:1") && e.to_string().contains("averages"),
+            "{e}"
+        );
     }
 }

@@ -12,12 +12,14 @@
 //! impact test is judged on a systematic subsample of its strongest force
 //! ([`ColumnStats::subsample`](crate::read::ColumnStats::subsample), the whole column
 //! up to 65 536 samples) against the exact extremes; records that short are judged
-//! exactly as in memory.
+//! exactly as in memory. Whether it is a sweep is judged as in memory, from one more pass
+//! that keeps the middle window of each part the test looks at.
 
 use super::{
-    check_averages, check_options, check_responses, groups, impulsive, n_lines, on_worker,
-    resolve_excitation, to_displacement, too_short_for_segment, welch_estimate, welch_length,
-    welch_segments, Accumulator, Ctx, Excitation, FrfEstimate, FrfOptions, RecordInfo, Welch,
+    check_averages, check_options, check_responses, groups, impulsive, is_sweep_windows, n_lines,
+    on_worker, resolve_excitation, to_displacement, too_short_for_segment, welch_estimate,
+    welch_length, welch_segments, Accumulator, Ctx, Excitation, FrfEstimate, FrfOptions,
+    RecordInfo, Welch, SWEEP_SEGMENTS, SWEEP_WINDOW,
 };
 use crate::error::{Error, Result};
 use crate::read::{RecordScan, RowReader};
@@ -45,7 +47,63 @@ fn source(scan: &RecordScan) -> String {
 /// Only [`Excitation::Continuous`] can be streamed.
 pub fn excitation_of_scan(scan: &RecordScan, opts: &FrfOptions) -> Result<Excitation> {
     check_responses(&source(scan), scan.response_kind, &scan.response_axes())?;
-    resolve_excitation(opts.excitation, &[RecordInfo::from_scan(scan)?])
+    let mut info = RecordInfo::from_scan(scan)?;
+    if opts.excitation == Excitation::Auto && !info.impulsive {
+        info.sweep = swept(scan, info.strongest)?;
+    }
+    resolve_excitation(opts.excitation, &[info])
+}
+
+/// Whether the strongest force of a scanned record is a sweep, judged as in memory
+/// ([`super::is_sweep`]: the same parts, the same middle windows, each part's mean and
+/// RMS) from one more pass over the file that keeps only those windows. Without it a
+/// long logarithmic sweep was taken for continuous excitation and Welch-averaged, where
+/// `identify` (in memory) recognised it: tryout sweep, 10.6 MB, xx 99.41 % vs the truth
+/// from the Welch FRF CSV, 99.95 % from the record.
+fn swept(scan: &RecordScan, along: crate::axis::Axis) -> Result<bool> {
+    let rows = scan.rows;
+    let part = (rows / SWEEP_SEGMENTS) & !1;
+    if rows / SWEEP_SEGMENTS < 64 {
+        return Ok(false);
+    }
+    let n = part.min(SWEEP_WINDOW);
+    let off = (part - n) / 2;
+    let mut reader = RowReader::open(&scan.source)?;
+    let col = reader
+        .force_column(along)
+        .ok_or_else(|| crate::read::changed_while_read(&scan.source))?;
+    let mut windows: Vec<Vec<f64>> = (0..SWEEP_SEGMENTS).map(|_| Vec::with_capacity(n)).collect();
+    // per part: its first sample (the shift), Σ(v - c), Σ(v - c)²
+    let mut sums = vec![(0.0f64, 0.0f64, 0.0f64); SWEEP_SEGMENTS];
+    let mut i = 0usize;
+    while let Some(row) = reader.next_row()? {
+        let v = row[col];
+        let s = i / part;
+        if s < SWEEP_SEGMENTS {
+            let k = i - s * part;
+            if k == 0 {
+                sums[s].0 = v;
+            }
+            let d = v - sums[s].0;
+            sums[s].1 += d;
+            sums[s].2 += d * d;
+            if k >= off && k < off + n {
+                windows[s].push(v);
+            }
+        }
+        i += 1;
+    }
+    let end = reader.finish()?;
+    if end.rows != rows {
+        return Err(crate::read::changed_while_read(&scan.source));
+    }
+    let len = part as f64;
+    let means: Vec<f64> = sums.iter().map(|&(c, s1, _)| c + s1 / len).collect();
+    let rms: Vec<f64> = (sums.iter())
+        .map(|&(_, s1, s2)| ((s2 - s1 * s1 / len) / len).max(0.0).sqrt())
+        .collect();
+    let parts: Vec<&[f64]> = windows.iter().map(Vec::as_slice).collect();
+    Ok(is_sweep_windows(&parts, &means, &rms))
 }
 
 /// Welch FRF estimate of the record `scan` describes, read again row by row (module
