@@ -127,16 +127,21 @@ fn frf_report(a: &Args, est: &FrfEstimate, unit: AverageUnit) -> String {
 }
 
 /// How the records were read.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 enum Reading {
-    InMemory,
-    Streamed { rows: usize },
+    /// Read into memory; the records' common pose, when they state one.
+    InMemory {
+        pose: Option<[f64; 3]>,
+    },
+    Streamed {
+        rows: usize,
+    },
 }
 
 impl Reading {
     fn name(self) -> &'static str {
         match self {
-            Reading::InMemory => "in_memory",
+            Reading::InMemory { .. } => "in_memory",
             Reading::Streamed { .. } => "streamed",
         }
     }
@@ -175,8 +180,38 @@ fn estimate(a: &Args, opts: &FrfOptions, out: &Output) -> Result<(FrfEstimate, R
         ));
     }
     let series = read_series(&a.files, out)?;
-    let est = estimate_frf(&series, opts).context("FRF estimation")?;
-    Ok((est, Reading::InMemory))
+    let mut est = estimate_frf(&series, opts).context("FRF estimation")?;
+    let pose = common_pose(&series, &mut est.warnings);
+    Ok((est, Reading::InMemory { pose }))
+}
+
+/// The pose the records were measured at, when they carry axis positions and share one
+/// (within identify's 1 mm): written into the FRF CSV, so that the FRF CSVs of a
+/// campaign, one per pose, identify as that campaign. Records at several poses get a
+/// warning: one FRF of all of them belongs to none.
+fn common_pose(
+    series: &[identify::timeseries::TimeSeries],
+    warnings: &mut Vec<String>,
+) -> Option<[f64; 3]> {
+    if !series
+        .iter()
+        .any(|r| r.position.iter().any(Option::is_some))
+    {
+        return None;
+    }
+    let tol = identify::campaign::CampaignOptions::default().pose_tol_m;
+    match identify::campaign::group_by_pose(series, tol).as_slice() {
+        [g] => Some(g.pose),
+        groups => {
+            warnings.push(format!(
+                "the records were measured at {} poses: this FRF averages them and belongs \
+                 to none of them (estimate each pose alone, or give every record to \
+                 identify, which groups them by pose)",
+                groups.len()
+            ));
+            None
+        }
+    }
 }
 
 /// What the estimate's method text leaves out: the method names the estimator, the line
@@ -290,6 +325,10 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
             force_band_hz: est.excitation_band_hz,
             averages: (est.averages_per_channel > 0).then_some(est.averages_per_channel),
             coherence_dof: est.coherence_dof,
+            pose: match reading {
+                Reading::InMemory { pose } => pose,
+                Reading::Streamed { .. } => None,
+            },
         },
     )?;
     let mut chans = Vec::new();

@@ -264,6 +264,73 @@ fn tryout_log_sweep_twin_beats_the_raw_ratio_of_its_record() {
     );
 }
 
+/// The FRF CSVs `mtwin frf` writes, one per pose, identify as the campaign their records
+/// make: each states its pose (the records' axis positions), so two poses' files are
+/// two poses (before, both sat at the origin and identify refused them), with the same
+/// twin as from the records; records of two poses in one `frf` call are warned about.
+#[test]
+fn tryout_frf_csvs_of_two_poses_identify_as_their_records_do() {
+    let dir = tmp();
+    let files = campaign_files();
+    let of = |p: &str| -> Vec<PathBuf> {
+        (files.iter())
+            .filter(|f| {
+                f.file_name()
+                    .is_some_and(|n| n.to_string_lossy().starts_with(p))
+            })
+            .cloned()
+            .collect()
+    };
+    let mut csvs = Vec::new();
+    for p in ["g00_", "g05_"] {
+        let out = dir.path().join(format!("{p}frf.csv"));
+        let mut args = vec!["frf", "-q"];
+        let recs = of(p);
+        args.extend(recs.iter().map(|f| s(f)));
+        args.extend(["--out", s(&out)]);
+        let o = mtwin(&args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        csvs.push(out);
+    }
+    let via_csv = identify(&csvs, &dir.path().join("csv.json"));
+    let mut recs = of("g00_");
+    recs.extend(of("g05_"));
+    let from_records = identify(&recs, &dir.path().join("rec.json"));
+    assert_eq!(via_csv.poses.len(), 2);
+    for (a, b) in via_csv.poses.iter().zip(&from_records.poses) {
+        assert!(
+            (0..3).all(|k| (a.pose[k] - b.pose[k]).abs() < 1e-6),
+            "{:?} vs {:?}",
+            a.pose,
+            b.pose
+        );
+    }
+    for name in ["g00", "g05"] {
+        let truth_path = tryout(&format!("truth/{name}.csv"));
+        let truth = read_frf_csv(&truth_path).expect("truth");
+        let pose = pose_of(&truth_path);
+        for ch in [
+            Channel::new(Axis::X, Axis::X),
+            Channel::new(Axis::Y, Axis::Y),
+        ] {
+            let a = twin_vs_truth(&via_csv, &truth, pose, ch, (30.0, 2500.0));
+            let b = twin_vs_truth(&from_records, &truth, pose, ch, (30.0, 2500.0));
+            eprintln!("{name} {ch}: via FRF CSVs {a:.2} %, from records {b:.2} %");
+            assert!(
+                (a - b).abs() < 0.1 && a > 99.0,
+                "{name} {ch}: {a:.2} vs {b:.2} %"
+            );
+        }
+    }
+    let mixed = [of("g00_x")[0].clone(), of("g05_x")[0].clone()];
+    let out = dir.path().join("mixed.csv");
+    let o = mtwin(&["frf", s(&mixed[0]), s(&mixed[1]), "--out", s(&out)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("measured at 2 poses"), "{}", stderr(&o));
+    let text = std::fs::read_to_string(&out).expect("frf");
+    assert!(!text.contains("# pose="), "{:.300}", text);
+}
+
 /// `mtwin frf` then `mtwin identify frf.csv` gives the twin the records give: the CSV
 /// states the window, the force's band and the averages, so the plan leaves the
 /// noise-only z channels out and takes the window out of the model (g01: σ 10.9 1/s;

@@ -137,6 +137,9 @@ pub struct EstimateNotes {
     /// line-to-line scatter (one sweep record) instead of averages
     /// (`# coherence_dof=N`).
     pub coherence_dof: Option<usize>,
+    /// The pose the records were measured at (`# pose=X,Y,Z`): FRF CSVs of a campaign,
+    /// one per pose, identify as that campaign.
+    pub pose: Option<[f64; 3]>,
 }
 
 fn uff_data_type(m: MeasuredAs) -> i32 {
@@ -199,6 +202,7 @@ pub fn read_frf_file(path: &Path, o: &ReadOptions) -> Result<FrfFile> {
             pose: pose_comment(&text, path)?.or(o.pose),
             measured_as: None,
             notes: EstimateNotes {
+                pose: pose_comment(&text, path)?,
                 exp_window_sigma: sigma_comment(&text, path)?,
                 force_band_hz: band_comment(&text, path)?,
                 averages: count_comment(&text, path, AVERAGES_COMMENT)?,
@@ -340,7 +344,7 @@ impl std::fmt::Display for FrfFormat {
 /// 58b (binary) when `binary`, the FRF CSV of docs/formats.md otherwise. Atomic. The
 /// CSV states the estimate's `notes` in comment lines before its header
 /// (`# exp_window_sigma=V`, `# force_band_hz=LO,HI`, `# averages=N`,
-/// `# coherence_dof=N`), which [`read_frf_file`] reads back (a UFF file has no place for
+/// `# coherence_dof=N`, `# pose=X,Y,Z`), which [`read_frf_file`] reads back (a UFF file has no place for
 /// them: the caller warns about a window).
 pub fn write_frf(path: &Path, frf: &Frf, binary: bool, notes: &EstimateNotes) -> Result<FrfFormat> {
     if is_uff(path) {
@@ -359,6 +363,9 @@ pub fn write_frf(path: &Path, frf: &Frf, binary: bool, notes: &EstimateNotes) ->
         )))
     } else {
         let mut text = String::new();
+        if let Some([x, y, z]) = notes.pose {
+            text += &format!("# pose={x},{y},{z}\n");
+        }
         if let Some(sigma) = notes.exp_window_sigma.filter(|s| *s > 0.0) {
             text += &format!(
                 "# {SIGMA_COMMENT}{sigma} (1/s: an exponential window's estimate, the FRFs \
@@ -422,8 +429,8 @@ mod tests {
         );
     }
 
-    /// An estimate's notes written to an FRF CSV (window, force band, averages, scatter
-    /// lines) are read back; a bad value is an error naming its line.
+    /// An estimate's notes written to an FRF CSV (pose, window, force band, averages,
+    /// scatter lines) are read back; a bad value is an error naming its line.
     #[test]
     fn estimate_notes_round_trip_through_an_frf_csv() {
         let dir = std::env::temp_dir().join(format!("mtwin-measured-rt-{}", std::process::id()));
@@ -445,6 +452,7 @@ mod tests {
             force_band_hz: Some((3.2, 3726.0)),
             averages: Some(5),
             coherence_dof: Some(7),
+            pose: Some([0.6, 0.15, 0.25]),
         };
         write_frf(&p, &frf, false, &notes).unwrap();
         let back = read_frf_file(&p, &ReadOptions::default()).unwrap();
