@@ -246,7 +246,6 @@ fn cells() -> Vec<Cell> {
             spacing: Spacing::Close,
             zeta: 0.005,
             seed: 26,
-            known_failure: true,
             ..NOMINAL
         },
         // combined corners
