@@ -309,9 +309,10 @@ pub fn run(a: Args, out: &Output) -> Result<()> {
         .filter(|_| identify::io::measured::is_uff(&a.out))
     {
         est.warnings.push(format!(
-            "{}: the FRFs are H(s + {s:.3}/s), an exponential window's estimate, and a \
-             universal file has no place to say so: a modal fit of this file sees each mode \
-             {s:.3}/ω more damped (write an FRF CSV, which states the window, to identify from)",
+            "{}: the FRFs are H(s + {s:.3}/s), an exponential window's estimate; the \
+             universal file states it only in its ID line 4, which mtwin reads and other \
+             tools show as text: their modal fit of this file sees each mode {s:.3}/ω more \
+             damped",
             a.out.display()
         ));
     }

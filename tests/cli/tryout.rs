@@ -336,7 +336,8 @@ fn tryout_frf_csvs_of_two_poses_identify_as_their_records_do() {
 /// noise-only z channels out and takes the window out of the model (g01: σ 10.9 1/s;
 /// before the averages were written, xx fitted its own FRF at 28.6 % and the truth at
 /// 24 %; with the `# averages` line removed, as from another tool, they are estimated
-/// from the least coherent channel and the twin is the same).
+/// from the least coherent channel and the twin is the same; the same again through a
+/// universal file).
 #[test]
 fn tryout_twin_from_frf_csv_matches_the_twin_from_records() {
     let dir = tmp();
@@ -366,7 +367,14 @@ fn tryout_twin_from_frf_csv_matches_the_twin_from_records() {
     let truth_path = tryout("truth/g01.csv");
     let truth = read_frf_csv(&truth_path).expect("truth");
     let pose = pose_of(&truth_path);
-    for (name, csv) in [("stated", &frf_csv), ("estimated", &stripped)] {
+    // and through a universal file, whose FRF functions state the notes in ID lines 4-5
+    let uff = dir.path().join("g01_frf.uff");
+    let mut args = vec!["frf", "-q"];
+    args.extend(files.iter().map(|f| s(f)));
+    args.extend(["--out", s(&uff)]);
+    let o = mtwin(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    for (name, csv) in [("stated", &frf_csv), ("estimated", &stripped), ("uff", &uff)] {
         let twin = identify(
             std::slice::from_ref(csv),
             &dir.path().join(format!("{name}.json")),

@@ -185,11 +185,15 @@ pub fn read_frf_file(path: &Path, o: &ReadOptions) -> Result<FrfFile> {
                 path.display()
             ))
         })?;
+        let notes = (funcs.iter())
+            .find(|f| f.func_type == uff::FUNC_FRF && f.id[3].starts_with(UFF_NOTES))
+            .map(|f| notes_from_id_lines(&f.id[3], &f.id[4]))
+            .unwrap_or_default();
         Ok(FrfFile {
             frf,
-            pose: o.pose,
+            pose: notes.pose.or(o.pose),
             measured_as,
-            notes: EstimateNotes::default(),
+            notes,
         })
     } else {
         let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
@@ -340,15 +344,77 @@ impl std::fmt::Display for FrfFormat {
     }
 }
 
+/// First word of the ID lines 4 and 5 in which a universal file written by [`write_frf`]
+/// states the estimate's notes.
+const UFF_NOTES: &str = "mtwin:";
+
+/// The estimate's notes as ID lines 4 and 5 of a universal file's FRF functions (80
+/// characters each at most: numbers rounded to 6 decimals, the band to 4).
+fn notes_id_lines(n: &EstimateNotes) -> [String; 2] {
+    let mut a = UFF_NOTES.to_string();
+    if let Some(v) = n.averages {
+        a += &format!(" {AVERAGES_COMMENT}{v}");
+    }
+    if let Some(v) = n.coherence_dof {
+        a += &format!(" {DOF_COMMENT}{v}");
+    }
+    if let Some(v) = n.exp_window_sigma.filter(|s| *s > 0.0) {
+        a += &format!(" {SIGMA_COMMENT}{v:.6}");
+    }
+    let mut b = UFF_NOTES.to_string();
+    if let Some([x, y, z]) = n.pose {
+        b += &format!(" pose={x:.6},{y:.6},{z:.6}");
+    }
+    if let Some((lo, hi)) = n.force_band_hz {
+        b += &format!(" {BAND_COMMENT}{lo:.4},{hi:.4}");
+    }
+    [a, b]
+}
+
+/// The notes [`notes_id_lines`] wrote; a word that does not parse is left out (ID lines
+/// are free text).
+fn notes_from_id_lines(a: &str, b: &str) -> EstimateNotes {
+    let mut n = EstimateNotes::default();
+    for word in a.split_whitespace().chain(b.split_whitespace()) {
+        let Some((key, v)) = word.split_once('=') else {
+            continue;
+        };
+        let nums: Vec<f64> = v.split(',').filter_map(|x| x.parse().ok()).collect();
+        match (key, nums.as_slice()) {
+            ("averages", [x]) if *x >= 1.0 => n.averages = Some(*x as usize),
+            ("coherence_dof", [x]) if *x >= 1.0 => n.coherence_dof = Some(*x as usize),
+            ("exp_window_sigma", [x]) if *x > 0.0 && x.is_finite() => {
+                n.exp_window_sigma = Some(*x)
+            }
+            ("pose", [x, y, z]) if [x, y, z].iter().all(|v| v.is_finite()) => {
+                n.pose = Some([*x, *y, *z])
+            }
+            ("force_band_hz", [lo, hi]) if *lo >= 0.0 && hi > lo && hi.is_finite() => {
+                n.force_band_hz = Some((*lo, *hi))
+            }
+            _ => {}
+        }
+    }
+    n
+}
+
 /// Writes an FRF by the output's extension: UFF dataset 58 (ASCII) for `.uff`/`.unv`,
 /// 58b (binary) when `binary`, the FRF CSV of docs/formats.md otherwise. Atomic. The
-/// CSV states the estimate's `notes` in comment lines before its header
-/// (`# exp_window_sigma=V`, `# force_band_hz=LO,HI`, `# averages=N`,
-/// `# coherence_dof=N`, `# pose=X,Y,Z`), which [`read_frf_file`] reads back (a UFF file has no place for
-/// them: the caller warns about a window).
+/// estimate's `notes` are stated and [`read_frf_file`] reads them back: in the CSV as
+/// comment lines before its header (`# pose=X,Y,Z`, `# exp_window_sigma=V`,
+/// `# force_band_hz=LO,HI`, `# averages=N`, `# coherence_dof=N`), in a universal file
+/// as ID lines 4 and 5 of each FRF function (`mtwin: averages=N ...`), which other
+/// tools show as text.
 pub fn write_frf(path: &Path, frf: &Frf, binary: bool, notes: &EstimateNotes) -> Result<FrfFormat> {
     if is_uff(path) {
-        let funcs = uff::uff_from_frf(frf, 1);
+        let mut funcs = uff::uff_from_frf(frf, 1);
+        if *notes != EstimateNotes::default() {
+            let [a, b] = notes_id_lines(notes);
+            for f in funcs.iter_mut().filter(|f| f.func_type == uff::FUNC_FRF) {
+                f.id[3] = a.clone();
+                f.id[4] = b.clone();
+            }
+        }
         if binary {
             uff::write_uff58b(path, &funcs)?;
             Ok(FrfFormat::Uff58b)
@@ -457,6 +523,14 @@ mod tests {
         write_frf(&p, &frf, false, &notes).unwrap();
         let back = read_frf_file(&p, &ReadOptions::default()).unwrap();
         assert_eq!(back.notes, notes);
+        // the same through a universal file's ID lines, rounded as written there
+        for (name, binary) in [("w.uff", false), ("w_b.uff", true)] {
+            let u = dir.join(name);
+            write_frf(&u, &frf, binary, &notes).unwrap();
+            let back = read_frf_file(&u, &ReadOptions::default()).unwrap();
+            assert_eq!(back.notes, notes, "{name}");
+            assert_eq!(back.pose, notes.pose, "{name}");
+        }
         let q = dir.join("plain.csv");
         write_frf(&q, &frf, false, &EstimateNotes::default()).unwrap();
         let plain = read_frf_file(&q, &ReadOptions::default()).unwrap();
