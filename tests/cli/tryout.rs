@@ -374,7 +374,11 @@ fn tryout_twin_from_frf_csv_matches_the_twin_from_records() {
     args.extend(["--out", s(&uff)]);
     let o = mtwin(&args);
     assert!(o.status.success(), "{}", stderr(&o));
-    for (name, csv) in [("stated", &frf_csv), ("estimated", &stripped), ("uff", &uff)] {
+    for (name, csv) in [
+        ("stated", &frf_csv),
+        ("estimated", &stripped),
+        ("uff", &uff),
+    ] {
         let twin = identify(
             std::slice::from_ref(csv),
             &dir.path().join(format!("{name}.json")),

@@ -383,9 +383,7 @@ fn notes_from_id_lines(a: &str, b: &str) -> EstimateNotes {
         match (key, nums.as_slice()) {
             ("averages", [x]) if *x >= 1.0 => n.averages = Some(*x as usize),
             ("coherence_dof", [x]) if *x >= 1.0 => n.coherence_dof = Some(*x as usize),
-            ("exp_window_sigma", [x]) if *x > 0.0 && x.is_finite() => {
-                n.exp_window_sigma = Some(*x)
-            }
+            ("exp_window_sigma", [x]) if *x > 0.0 && x.is_finite() => n.exp_window_sigma = Some(*x),
             ("pose", [x, y, z]) if [x, y, z].iter().all(|v| v.is_finite()) => {
                 n.pose = Some([*x, *y, *z])
             }
