@@ -55,6 +55,25 @@ fn campaign_files() -> Vec<PathBuf> {
     files
 }
 
+/// The campaign's record files whose names start with `prefix` (`g01_`: a pose's two).
+fn pose_files(prefix: &str) -> Vec<PathBuf> {
+    (campaign_files().into_iter())
+        .filter(|f| {
+            f.file_name()
+                .is_some_and(|n| n.to_string_lossy().starts_with(prefix))
+        })
+        .collect()
+}
+
+/// `mtwin frf -q FILES --out OUT`, which must succeed.
+fn frf(files: &[PathBuf], out: &Path) {
+    let mut args = vec!["frf", "-q"];
+    args.extend(files.iter().map(|f| s(f)));
+    args.extend(["--out", s(out)]);
+    let o = mtwin(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
 fn identify(files: &[PathBuf], out: &Path) -> Twin {
     let mut args: Vec<&str> = vec!["identify", "-q"];
     args.extend(files.iter().map(|f| s(f)));
@@ -169,13 +188,7 @@ fn tryout_campaign_twin_fits_the_truth_better_than_its_own_h1() {
 #[test]
 fn tryout_pose_cross_channels_are_judged_with_their_own_averages() {
     let dir = tmp();
-    let files: Vec<PathBuf> = campaign_files()
-        .into_iter()
-        .filter(|f| {
-            f.file_name()
-                .is_some_and(|n| n.to_string_lossy().starts_with("g02_"))
-        })
-        .collect();
+    let files = pose_files("g02_");
     assert_eq!(files.len(), 2);
     let twin = identify(&files, &dir.path().join("twin.json"));
     let p = &twin.poses[0];
@@ -271,25 +284,11 @@ fn tryout_log_sweep_twin_beats_the_raw_ratio_of_its_record() {
 #[test]
 fn tryout_frf_csvs_of_two_poses_identify_as_their_records_do() {
     let dir = tmp();
-    let files = campaign_files();
-    let of = |p: &str| -> Vec<PathBuf> {
-        (files.iter())
-            .filter(|f| {
-                f.file_name()
-                    .is_some_and(|n| n.to_string_lossy().starts_with(p))
-            })
-            .cloned()
-            .collect()
-    };
+    let of = pose_files;
     let mut csvs = Vec::new();
     for p in ["g00_", "g05_"] {
         let out = dir.path().join(format!("{p}frf.csv"));
-        let mut args = vec!["frf", "-q"];
-        let recs = of(p);
-        args.extend(recs.iter().map(|f| s(f)));
-        args.extend(["--out", s(&out)]);
-        let o = mtwin(&args);
-        assert!(o.status.success(), "{}", stderr(&o));
+        frf(&of(p), &out);
         csvs.push(out);
     }
     let via_csv = identify(&csvs, &dir.path().join("csv.json"));
@@ -341,21 +340,11 @@ fn tryout_frf_csvs_of_two_poses_identify_as_their_records_do() {
 #[test]
 fn tryout_twin_from_frf_csv_matches_the_twin_from_records() {
     let dir = tmp();
-    let files: Vec<PathBuf> = campaign_files()
-        .into_iter()
-        .filter(|f| {
-            f.file_name()
-                .is_some_and(|n| n.to_string_lossy().starts_with("g01_"))
-        })
-        .collect();
+    let files = pose_files("g01_");
     assert_eq!(files.len(), 2);
     let from_records = identify(&files, &dir.path().join("rec.json"));
     let frf_csv = dir.path().join("g01_frf.csv");
-    let mut args = vec!["frf", "-q"];
-    args.extend(files.iter().map(|f| s(f)));
-    args.extend(["--out", s(&frf_csv)]);
-    let o = mtwin(&args);
-    assert!(o.status.success(), "{}", stderr(&o));
+    frf(&files, &frf_csv);
     let text = std::fs::read_to_string(&frf_csv).expect("frf csv");
     assert!(text.contains("# averages=5 "), "{:.400}", text);
     let stripped = dir.path().join("g01_no_averages.csv");
@@ -369,11 +358,7 @@ fn tryout_twin_from_frf_csv_matches_the_twin_from_records() {
     let pose = pose_of(&truth_path);
     // and through a universal file, whose FRF functions state the notes in ID lines 4-5
     let uff = dir.path().join("g01_frf.uff");
-    let mut args = vec!["frf", "-q"];
-    args.extend(files.iter().map(|f| s(f)));
-    args.extend(["--out", s(&uff)]);
-    let o = mtwin(&args);
-    assert!(o.status.success(), "{}", stderr(&o));
+    frf(&files, &uff);
     for (name, csv) in [
         ("stated", &frf_csv),
         ("estimated", &stripped),
