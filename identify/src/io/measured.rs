@@ -257,21 +257,60 @@ fn comment_value<'t>(text: &'t str, key: &str) -> Option<(usize, &'t str)> {
     })
 }
 
-/// The exponential window's decay of an FRF CSV from a comment line
-/// `# exp_window_sigma=V ...` before the header, if any.
-fn sigma_comment(text: &str, path: &Path) -> Result<Option<f64>> {
-    let Some((line, word)) = comment_value(text, SIGMA_COMMENT) else {
+/// A decay in 1/s, zero or positive (the window's `exp_window_sigma`).
+fn sigma_value(w: &str) -> Option<f64> {
+    w.parse::<f64>().ok().filter(|s| s.is_finite() && *s >= 0.0)
+}
+
+/// Two frequencies `LO,HI` in Hz with `0 <= LO < HI` (the force's band).
+fn band_value(w: &str) -> Option<(f64, f64)> {
+    match w
+        .split(',')
+        .map(|x| x.parse::<f64>().ok())
+        .collect::<Vec<_>>()[..]
+    {
+        [Some(lo), Some(hi)] if lo.is_finite() && hi.is_finite() && lo >= 0.0 && hi > lo => {
+            Some((lo, hi))
+        }
+        _ => None,
+    }
+}
+
+/// A whole number, at least 1 (averages, scatter lines).
+fn count_value(w: &str) -> Option<usize> {
+    w.parse::<usize>().ok().filter(|n| *n >= 1)
+}
+
+/// The value of a comment line `# key=V ...` before an FRF CSV's header, read by
+/// `parse`, if there is one; a value `parse` refuses is an error naming the line, and
+/// `rule` says what it must be.
+fn comment<T>(
+    text: &str,
+    path: &Path,
+    key: &str,
+    parse: fn(&str) -> Option<T>,
+    rule: &str,
+) -> Result<Option<T>> {
+    let Some((line, word)) = comment_value(text, key) else {
         return Ok(None);
     };
-    match word.parse::<f64>() {
-        Ok(s) if s.is_finite() && s >= 0.0 => Ok((s > 0.0).then_some(s)),
-        _ => Err(Error::bad_file(
-            path,
-            line,
-            Some(word),
-            "exp_window_sigma must be a decay in 1/s, zero or positive",
-        )),
-    }
+    parse(word).map(Some).ok_or_else(|| {
+        let name = key.trim_end_matches('=');
+        Error::bad_file(path, line, Some(word), format!("{name} must be {rule}"))
+    })
+}
+
+/// The exponential window's decay of an FRF CSV from a comment line
+/// `# exp_window_sigma=V ...` before the header, if any (0: no window).
+fn sigma_comment(text: &str, path: &Path) -> Result<Option<f64>> {
+    let s = comment(
+        text,
+        path,
+        SIGMA_COMMENT,
+        sigma_value,
+        "a decay in 1/s, zero or positive",
+    )?;
+    Ok(s.filter(|s| *s > 0.0))
 }
 
 /// Comment line of an FRF CSV that states the force's band.
@@ -280,21 +319,8 @@ const BAND_COMMENT: &str = "force_band_hz=";
 /// The force's band of an FRF CSV from a comment line `# force_band_hz=LO,HI ...` before
 /// the header, if any.
 fn band_comment(text: &str, path: &Path) -> Result<Option<(f64, f64)>> {
-    let Some((line, word)) = comment_value(text, BAND_COMMENT) else {
-        return Ok(None);
-    };
-    let parts: Vec<Option<f64>> = word.split(',').map(|x| x.parse().ok()).collect();
-    match parts.as_slice() {
-        [Some(lo), Some(hi)] if lo.is_finite() && hi.is_finite() && *lo >= 0.0 && hi > lo => {
-            Ok(Some((*lo, *hi)))
-        }
-        _ => Err(Error::bad_file(
-            path,
-            line,
-            Some(word),
-            "force_band_hz must be two frequencies in Hz, LO,HI with 0 <= LO < HI",
-        )),
-    }
+    let rule = "two frequencies in Hz, LO,HI with 0 <= LO < HI";
+    comment(text, path, BAND_COMMENT, band_value, rule)
 }
 
 /// Comment line of an FRF CSV that states the averages behind each channel.
@@ -303,24 +329,9 @@ const AVERAGES_COMMENT: &str = "averages=";
 /// Comment line of an FRF CSV that states the lines behind a scatter coherence.
 const DOF_COMMENT: &str = "coherence_dof=";
 
-/// A count (a whole number, at least 1) from a comment line `# key=N ...` before an FRF
-/// CSV's header, if any.
+/// A count from a comment line `# key=N ...` before an FRF CSV's header, if any.
 fn count_comment(text: &str, path: &Path, key: &str) -> Result<Option<usize>> {
-    let Some((line, word)) = comment_value(text, key) else {
-        return Ok(None);
-    };
-    match word.parse::<usize>() {
-        Ok(n) if n >= 1 => Ok(Some(n)),
-        _ => Err(Error::bad_file(
-            path,
-            line,
-            Some(word),
-            format!(
-                "{} must be a whole number, at least 1",
-                key.trim_end_matches('=')
-            ),
-        )),
-    }
+    comment(text, path, key, count_value, "a whole number, at least 1")
 }
 
 /// The format [`write_frf`] chose.
@@ -371,26 +382,21 @@ fn notes_id_lines(n: &EstimateNotes) -> [String; 2] {
     [a, b]
 }
 
-/// The notes [`notes_id_lines`] wrote; a word that does not parse is left out (ID lines
-/// are free text).
+/// The notes [`notes_id_lines`] wrote, each value read as from the CSV's comments; a
+/// word that does not parse is left out (ID lines are free text).
 fn notes_from_id_lines(a: &str, b: &str) -> EstimateNotes {
     let mut n = EstimateNotes::default();
     for word in a.split_whitespace().chain(b.split_whitespace()) {
-        let Some((key, v)) = word.split_once('=') else {
-            continue;
-        };
-        let nums: Vec<f64> = v.split(',').filter_map(|x| x.parse().ok()).collect();
-        match (key, nums.as_slice()) {
-            ("averages", [x]) if *x >= 1.0 => n.averages = Some(*x as usize),
-            ("coherence_dof", [x]) if *x >= 1.0 => n.coherence_dof = Some(*x as usize),
-            ("exp_window_sigma", [x]) if *x > 0.0 && x.is_finite() => n.exp_window_sigma = Some(*x),
-            ("pose", [x, y, z]) if [x, y, z].iter().all(|v| v.is_finite()) => {
-                n.pose = Some([*x, *y, *z])
-            }
-            ("force_band_hz", [lo, hi]) if *lo >= 0.0 && hi > lo && hi.is_finite() => {
-                n.force_band_hz = Some((*lo, *hi))
-            }
-            _ => {}
+        if let Some(v) = word.strip_prefix(AVERAGES_COMMENT) {
+            n.averages = count_value(v);
+        } else if let Some(v) = word.strip_prefix(DOF_COMMENT) {
+            n.coherence_dof = count_value(v);
+        } else if let Some(v) = word.strip_prefix(SIGMA_COMMENT) {
+            n.exp_window_sigma = sigma_value(v).filter(|s| *s > 0.0);
+        } else if let Some(v) = word.strip_prefix(BAND_COMMENT) {
+            n.force_band_hz = band_value(v);
+        } else if let Some(v) = word.strip_prefix("pose=") {
+            n.pose = parse_pose(v).ok();
         }
     }
     n
