@@ -1522,6 +1522,17 @@ pub fn refit(
     // mode that leaves the drift where it was: a 238 Hz mode 6 % lower, found in time,
     // gave way to a 2053 Hz mode moved 0.003 %, simulated response fit 98.53 % before and after)
     let mut new = new;
+    // ... and where that update leaves the records far from reproduced, one mode retuned in
+    // time is looked for as at the drift check
+    let time_drift = time_drift.or_else(|| {
+        (opts.method == RefitMethod::Time && fit_after < REFIT_TARGET_PCT)
+            .then(|| {
+                let all: Vec<usize> = (0..old.modes.len()).collect();
+                let num_rel = vec![Prior::default().num_rel; old.channels.len()];
+                retune_in_time(&old, &all, records, &num_rel)
+            })
+            .flatten()
+    });
     if let Some((oe, why)) = time_drift {
         let (t_out, t_weights) = spread(twin, &old, &oe.model, &new_frf, pose, near, spread_length);
         let (t_fit, t_traces, _) = time_fit_traces_after(twin, &t_out, records, &sims_before)?;
