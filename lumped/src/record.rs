@@ -88,16 +88,15 @@ fn pos(v: f64) -> String {
     format!("{}", if r == 0.0 { 0.0 } else { r })
 }
 
-/// Write `text` to a temporary file next to `path`, then rename it.
+/// Write `text` atomically (mtwin-core's temporary file and rename; a device or pipe is
+/// written in place), creating the folder first.
 pub fn write_atomic(path: &Path, text: &str) -> Result<(), Error> {
     if let Some(dir) = path.parent() {
         if !dir.as_os_str().is_empty() {
             std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
         }
     }
-    let tmp = path.with_extension("tmp~");
-    std::fs::write(&tmp, text).map_err(|e| Error::io(&tmp, e))?;
-    std::fs::rename(&tmp, path).map_err(|e| Error::io(path, e))
+    mtwin_core::atomic::write_atomic_io(path, text.as_bytes()).map_err(|e| Error::io(path, e))
 }
 
 impl Frf {
