@@ -142,8 +142,10 @@ impl Prepared {
         IFFT_BUFFERS.with_borrow_mut(|(out, scratch)| {
             out.resize(m, 0.0);
             scratch.resize(self.inverse.get_scratch_len(), Complex64::default());
-            // lengths match by construction, so the transform cannot fail
-            let _ = self.inverse.process_with_scratch(&mut spec, out, scratch);
+            // lengths match by construction (even, see `fast_len`): a failure is a bug
+            self.inverse
+                .process_with_scratch(&mut spec, out, scratch)
+                .expect("inverse FFT of a prepared record: lengths match");
             let scale = 1.0 / m as f64;
             out[self.skip..self.n].iter().map(|v| v * scale).collect()
         })
@@ -354,9 +356,14 @@ fn prepare(held: &ModalModel, skip: usize, ts: &TimeSeries) -> Result<Prepared> 
     Ok(p)
 }
 
-/// Smallest length ≥ n whose only prime factors are 2, 3 and 5.
+/// Smallest even length ≥ n whose only prime factors are 2, 3 and 5. Even: a record's
+/// spectrum is kept as the real FFT's half (`m/2 + 1` lines) and [`Prepared::to_time`]
+/// takes the length back from it, which an odd length does not round-trip (an odd
+/// 3·5-smooth length, e.g. 19 683 = 3⁹ for a half record of 15 360 samples with its
+/// 3 840 unfitted, made every inverse transform fail and the fit read a stale buffer).
 fn fast_len(n: usize) -> usize {
     let mut m = n.max(2);
+    m += m % 2;
     loop {
         let mut r = m;
         for p in [2, 3, 5] {
@@ -367,7 +374,7 @@ fn fast_len(n: usize) -> usize {
         if r == 1 {
             return m;
         }
-        m += 1;
+        m += 2;
     }
 }
 
@@ -1301,6 +1308,30 @@ mod tests {
         assert_eq!(fast_len(31), 32);
         assert_eq!(fast_len(1001), 1024);
         assert_eq!(fast_len(97), 100);
+        // odd 3·5-smooth numbers are passed over
+        assert_eq!(fast_len(19_441), 20_000);
+        for n in [15_625, 16_875, 18_225, 19_683, 28_125, 59_049] {
+            let m = fast_len(n);
+            assert!(m % 2 == 0 && m >= n, "{n} -> {m}");
+        }
+    }
+
+    /// Every record length fits: the exact response of a record cut to lengths around
+    /// one where record + unfitted start lands on an odd 3·5-smooth number (19 683 = 3⁹;
+    /// there the inverse transform used to fail and the fit read a stale buffer, relative
+    /// error 17-58 instead of ~0).
+    #[test]
+    fn record_lengths_around_an_odd_smooth_length_fit() {
+        let (truth, ts) = light_mode_record();
+        for n in [15_500, 15_650, 15_700, 15_740, 15_800] {
+            let cut = crate::signal::slice(&ts, 0, n);
+            let r = frequency_scan(&truth, 0, &[cut], &OeOptions::default(), &[1.0]).unwrap();
+            assert!(
+                r[0] < 1e-3,
+                "record of {n} samples: relative error {}",
+                r[0]
+            );
+        }
     }
 
     /// A lightly damped mode and a damped one, and a record of their exact response
