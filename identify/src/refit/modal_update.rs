@@ -171,6 +171,18 @@ impl ModeBounds {
     /// moving past a y mode) and within 3 prior widths of where it was; the damping ratio
     /// within [`ZETA_RANGE`] and 3 prior widths. The starting point always lies inside.
     pub fn identity(model: &ModalModel, k: usize, prior: &Prior) -> ModeBounds {
+        Self::identity_reaching(model, k, prior, 0.5)
+    }
+
+    /// [`ModeBounds::identity`] with the limit towards a like-shaped neighbour at `reach`
+    /// of the way to it in ln ω (`identity`: 0.5, the geometric midpoint), for evidence
+    /// that pins a mode more tightly than the Welch spectra do.
+    pub fn identity_reaching(
+        model: &ModalModel,
+        k: usize,
+        prior: &Prior,
+        reach: f64,
+    ) -> ModeBounds {
         let m = model.modes[k];
         let lw = m.wn.ln();
         let (mut lo, mut hi) = (lw - 3.0 * prior.ln_wn, lw + 3.0 * prior.ln_wn);
@@ -179,7 +191,7 @@ impl ModeBounds {
             {
                 continue;
             }
-            let mid = 0.5 * (lw + o.wn.ln());
+            let mid = lw + reach * (o.wn.ln() - lw);
             if o.wn < m.wn {
                 lo = lo.max(mid);
             } else if o.wn > m.wn {
