@@ -922,7 +922,6 @@ struct Halves {
     lines: [Vec<usize>; 2],
 }
 
-/// Every record's first halves and second halves.
 /// `twin` with the change `old -> new` (the model at `pose`) spread to its measured poses:
 /// in full over the poses of the grid cell around the operating pose (so the twin at the
 /// operating pose carries the whole change), then with weight exp(-(d/L)^2), d = distance
@@ -975,6 +974,7 @@ fn spread(
     (out, weights)
 }
 
+/// Every record's first halves and second halves.
 fn record_halves(records: &[TimeSeries]) -> [Vec<TimeSeries>; 2] {
     [false, true].map(|second| {
         records
