@@ -9,9 +9,9 @@ stage() { echo "== $* (at ${SECONDS} s)"; }
 # cargo's rustc probes read /dev/null: replaced by a regular file (a rename onto it as
 # root), it feeds them whatever other programs discarded and the build fails obscurely
 if [ ! -c /dev/null ]; then
-    echo "error: /dev/null is not a character device (it was replaced by a regular file);" \
-        "restore it as root: rm /dev/null && mknod -m 666 /dev/null c 1 3" >&2
-    exit 1
+    echo "warning: /dev/null is not a character device (it was replaced by a regular file);" \
+        "builds may fail in cargo's rustc probe; restore it as root:" \
+        "rm /dev/null && mknod -m 666 /dev/null c 1 3" >&2
 fi
 ./scripts/setup-rust.sh
 stage "cargo fmt --check"
