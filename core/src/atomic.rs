@@ -65,22 +65,21 @@ mod tests {
 
     #[test]
     fn replaces_whole_file() {
-        let d = std::env::temp_dir().join(format!("mtwin-atomic-{}", std::process::id()));
-        std::fs::create_dir_all(&d).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
         let p = d.join("a.txt");
         write_atomic(&p, b"first version, long").unwrap();
         write_atomic(&p, b"second").unwrap();
         assert_eq!(std::fs::read(&p).unwrap(), b"second");
-        let leftovers = std::fs::read_dir(&d).unwrap().count();
+        let leftovers = std::fs::read_dir(d).unwrap().count();
         assert_eq!(leftovers, 1);
-        std::fs::remove_dir_all(&d).unwrap();
     }
 
     #[cfg(unix)]
     #[test]
     fn a_link_is_followed_and_kept() {
-        let d = std::env::temp_dir().join(format!("mtwin-atomic-link-{}", std::process::id()));
-        std::fs::create_dir_all(&d).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
         let real = d.join("real.json");
         let link = d.join("link.json");
         std::fs::write(&real, b"old").unwrap();
@@ -91,7 +90,6 @@ mod tests {
             .file_type()
             .is_symlink());
         assert_eq!(std::fs::read(&real).unwrap(), b"new");
-        std::fs::remove_dir_all(&d).unwrap();
     }
 
     /// A named pipe stands for every non-regular file (`/dev/null`, a terminal): written
@@ -100,8 +98,8 @@ mod tests {
     #[test]
     fn a_pipe_is_written_in_place_not_replaced() {
         use std::os::unix::fs::FileTypeExt;
-        let d = std::env::temp_dir().join(format!("mtwin-atomic-fifo-{}", std::process::id()));
-        std::fs::create_dir_all(&d).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
         let fifo = d.join("pipe");
         let made = std::process::Command::new("mkfifo").arg(&fifo).status();
         assert!(made.is_ok_and(|s| s.success()), "mkfifo failed");
@@ -114,15 +112,14 @@ mod tests {
         let ft = std::fs::symlink_metadata(&fifo).unwrap().file_type();
         assert!(ft.is_fifo(), "the pipe was replaced: {ft:?}");
         assert_eq!(reader.join().unwrap(), b"through the pipe");
-        std::fs::remove_dir_all(&d).unwrap();
     }
 
     #[test]
     fn a_directory_is_refused_and_kept() {
-        let d = std::env::temp_dir().join(format!("mtwin-atomic-dir-{}", std::process::id()));
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
         std::fs::create_dir_all(d.join("sub")).unwrap();
         assert!(write_atomic(&d.join("sub"), b"x").is_err());
         assert!(d.join("sub").is_dir());
-        std::fs::remove_dir_all(&d).unwrap();
     }
 }
